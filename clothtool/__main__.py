@@ -1,0 +1,3 @@
+from clothtool.cli import main
+
+main()

@@ -1,0 +1,19 @@
+"""The ``clothtool`` command line: a thin layer over the library (parse, call, print)."""
+
+from __future__ import annotations
+
+import click
+
+from clothtool import __version__
+from clothtool.cli.cook import cook
+from clothtool.cli.inspect import inspect
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="clothtool")
+def main() -> None:
+    """Cook garment meshes into fabrics and bake fabrics into HDF5/USD caches."""
+
+
+main.add_command(cook)
+main.add_command(inspect)

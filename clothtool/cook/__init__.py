@@ -1,0 +1,1 @@
+"""Cooking: garment meshes into fabrics (adjacency, phases, scheduling, tethers, paint maps)."""

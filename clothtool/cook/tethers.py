@@ -1,0 +1,122 @@
+"""Tethers: long-range max-distance constraints from free particles to pinned ones.
+
+Pinned particles form *islands* (pinned particles connected by mesh edges: a waistband, a
+shoulder seam, a corner). Each free particle is tethered to its nearest pinned particle in
+each of its ``k`` nearest islands. The rest length is the geodesic distance over the mesh
+(shortest path along the constraint graph, which never undercuts the straight line), or the
+straight-line distance.
+
+Layout (NvCloth's): ``anchor[s * n + i]`` and ``length[s * n + i]`` are tether slot ``s`` of
+particle ``i``. Pinned particles, and slots a particle has no island for, hold the particle
+itself with length 0, which the solver's tether stage leaves unmoved.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def pinned_islands(pinned: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, int]:
+    """Island id (0..I-1, numbered by lowest particle index) of each pinned particle, -1 elsewhere."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    n = pinned.shape[0]
+    both = pinned[edges[:, 0]] & pinned[edges[:, 1]]
+    e = edges[both]
+    graph = coo_matrix((np.ones(e.shape[0], np.int8), (e[:, 0], e[:, 1])), shape=(n, n))
+    _, labels = connected_components(graph, directed=False)
+    labels = np.where(pinned, labels, -1)
+    # renumber islands 0..I-1 in order of their lowest particle
+    pinned_labels = labels[pinned]
+    _, first = np.unique(pinned_labels, return_index=True)
+    ordered = pinned_labels[np.sort(first)]
+    renumber = np.full(labels.max() + 2 if labels.size else 1, -1, np.int64)
+    renumber[ordered] = np.arange(ordered.shape[0])
+    return np.where(pinned, renumber[labels], -1), int(ordered.shape[0])
+
+
+def _graph(pos: np.ndarray, edges: np.ndarray):
+    from scipy.sparse import csr_matrix
+
+    n = pos.shape[0]
+    p = pos.astype(np.float64)
+    lengths = np.linalg.norm(p[edges[:, 1]] - p[edges[:, 0]], axis=1)
+    # csgraph treats explicit zeros as missing edges; a zero-length edge still connects.
+    lengths = np.maximum(lengths, 1e-30)
+    return csr_matrix((lengths, (edges[:, 0], edges[:, 1])), shape=(n, n))
+
+
+def _nearest_in_island_geodesic(graph, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.sparse.csgraph import dijkstra
+
+    dist, _, sources = dijkstra(graph, directed=False, indices=members, return_predecessors=True, min_only=True)
+    return dist, sources
+
+
+def _nearest_in_island_euclidean(pos: np.ndarray, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.spatial import cKDTree
+
+    dist, which = cKDTree(pos[members].astype(np.float64)).query(pos.astype(np.float64))
+    return dist, members[which]
+
+
+def build_tethers(
+    pos: np.ndarray,
+    edges: np.ndarray,
+    pinned: np.ndarray,
+    mode: str,
+    anchors_per_particle: int = 1,
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """Tether anchors and rest lengths (see module docstring for the layout).
+
+    Args:
+        pos: (n,3) rest positions.
+        edges: (e,2) constraint graph used for geodesic distances.
+        pinned: bool (n,) pinned particles (at least one).
+        mode: "geodesic" or "euclidean".
+        anchors_per_particle: k, the number of tether slots per particle.
+
+    Returns (anchor i32 (k*n,), length f32 (k*n,), fallback_count): the number of particles
+    that have no path over the mesh to any pinned particle and so got straight-line tethers.
+    """
+    n = pos.shape[0]
+    k = int(anchors_per_particle)
+    islands, island_count = pinned_islands(pinned, edges)
+    best_dist = np.full((k, n), np.inf)
+    best_anchor = np.tile(np.arange(n, dtype=np.int64), (k, 1))
+    graph = _graph(pos, edges) if mode == "geodesic" else None
+    for island in range(island_count):
+        members = np.flatnonzero(islands == island)
+        if mode == "geodesic":
+            dist, anchor = _nearest_in_island_geodesic(graph, members)
+        else:
+            dist, anchor = _nearest_in_island_euclidean(pos, members)
+        # merge into the running k nearest islands (stable: earlier islands win ties)
+        all_dist = np.vstack([best_dist, dist[None, :]])
+        all_anchor = np.vstack([best_anchor, np.where(np.isfinite(dist), anchor, np.arange(n))[None, :]])
+        order = np.argsort(all_dist, axis=0, kind="stable")[:k]
+        best_dist = np.take_along_axis(all_dist, order, axis=0)
+        best_anchor = np.take_along_axis(all_anchor, order, axis=0)
+
+    fallback = np.zeros(n, bool)
+    if mode == "geodesic":
+        # particles on a piece of mesh with no pinned particle: geodesics are undefined there
+        fallback = ~np.isfinite(best_dist[0]) & ~pinned
+        if fallback.any():
+            sub_anchor, sub_len, _ = build_tethers(pos, edges, pinned, "euclidean", k)
+            sub_anchor = sub_anchor.reshape(k, n)
+            sub_len = sub_len.reshape(k, n)
+            best_anchor[:, fallback] = sub_anchor[:, fallback]
+            best_dist[:, fallback] = sub_len[:, fallback]
+
+    unused = ~np.isfinite(best_dist)
+    best_anchor[unused] = np.broadcast_to(np.arange(n), best_anchor.shape)[unused]
+    best_dist[unused] = 0.0
+    best_anchor[:, pinned] = np.flatnonzero(pinned)
+    best_dist[:, pinned] = 0.0
+    return (
+        best_anchor.reshape(-1).astype(np.int32),
+        best_dist.reshape(-1).astype(np.float32),
+        int(fallback.sum()),
+    )

@@ -1,0 +1,287 @@
+"""The cooked fabric: NvCloth's fabric data with clear names, as flat numpy arrays.
+
+A fabric is static: it holds what a cloth instance needs that does not change while it is
+simulated (rest pose, constraints split into conflict-free sets, tethers, paint maps). It is
+independent of the material: masses are stored per unit areal density.
+
+Shapes use ``n`` particles, ``t`` triangles, ``f`` faces, ``p`` phases, ``s`` sets, ``c``
+constraints, ``k`` tethers per particle, ``v`` virtual particles, ``w`` virtual weights,
+``b`` virtual-particle batches. Every field is described in ``formats/fabric/v1.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from enum import IntEnum
+
+import numpy as np
+
+from clothtool.errors import FabricError
+
+FORMAT_NAME = "clothtool-fabric"
+FORMAT_VERSION = 1
+
+
+class PhaseType(IntEnum):
+    """Constraint phase types; the values are NvCloth's ``ClothFabricPhaseType``."""
+
+    VERTICAL = 1
+    HORIZONTAL = 2
+    BENDING = 3
+    SHEARING = 4
+
+    @property
+    def label(self) -> str:
+        return {1: "vertical", 2: "horizontal", 3: "bending", 4: "shearing"}[int(self)]
+
+
+# (field name, dtype, shape with symbolic dims) for every array field, in file order.
+ARRAY_FIELDS: tuple[tuple[str, type, tuple], ...] = (
+    ("rest_pos", np.float32, ("n", 3)),
+    ("particle_inv_mass", np.float32, ("n",)),
+    ("particle_area", np.float32, ("n",)),
+    ("particle_max_distance", np.float32, ("n",)),
+    ("triangles", np.int32, ("t", 3)),
+    ("face_vertex_counts", np.int32, ("f",)),
+    ("face_vertex_indices", np.int32, ("fv",)),
+    ("face_vertex_uv", np.float32, ("uv", 2)),
+    ("phase_type", np.int32, ("p",)),
+    ("phase_set_offsets", np.int32, ("p+1",)),
+    ("set_offsets", np.int32, ("s+1",)),
+    ("constraint_indices", np.int32, ("c", 2)),
+    ("constraint_rest_length", np.float32, ("c",)),
+    ("constraint_stiffness", np.float32, ("c",)),
+    ("tether_anchor", np.int32, ("kn",)),
+    ("tether_rest_length", np.float32, ("kn",)),
+    ("virtual_particles", np.int32, ("v", 4)),
+    ("virtual_particle_weights", np.float32, ("w", 3)),
+    ("virtual_batch_offsets", np.int32, ("b+1",)),
+)
+ARRAY_FIELD_NAMES = tuple(name for name, _, _ in ARRAY_FIELDS)
+
+# Scalar/string metadata stored as HDF5 root attributes.
+ATTR_FIELDS = ("meters_per_unit", "up_axis", "hang_direction", "source_sha256", "cook_options")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Fabric:
+    """Cooked cloth data (see module docstring and ``formats/fabric/v1.md``).
+
+    Attributes:
+        rest_pos: f32 (n,3) particle positions of the cooking pose, in fabric units.
+        particle_inv_mass: f32 (n,) inverse mass in 1/kg for an areal density of 1 kg/m^2;
+            0 marks a pinned particle. Divide by the material's areal density to get 1/kg.
+        particle_area: f32 (n,) lumped area per particle in m^2 (a third of each adjacent
+            triangle).
+        particle_max_distance: f32 (n,) motion-constraint radius in fabric units; +inf where
+            the particle is free.
+        triangles: i32 (t,3) triangulation used by wind, collision and the implicit solver.
+        face_vertex_counts, face_vertex_indices: the render topology (quads kept), as in USD.
+        face_vertex_uv: f32 (fv,2) per-face-vertex UVs, or (0,2) when the mesh had none.
+        phase_type: i32 (p,) ``PhaseType`` of each phase.
+        phase_set_offsets: i32 (p+1,) CSR: phase i owns sets [offsets[i], offsets[i+1]).
+        set_offsets: i32 (s+1,) CSR: set j owns constraints [offsets[j], offsets[j+1]).
+        constraint_indices: i32 (c,2) particle pairs; no movable particle twice in a set.
+        constraint_rest_length: f32 (c,) rest lengths in fabric units.
+        constraint_stiffness: f32 (c,) per-constraint stiffness multiplier in [0,1].
+        tether_anchor: i32 (k*n,) anchor particle of tether i, which acts on particle i % n.
+        tether_rest_length: f32 (k*n,) tether lengths in fabric units.
+        virtual_particles: i32 (v,4) three particle indices and a row of
+            ``virtual_particle_weights``; ordered in conflict-free batches.
+        virtual_particle_weights: f32 (w,3) barycentric weights.
+        virtual_batch_offsets: i32 (b+1,) CSR into ``virtual_particles``.
+        meters_per_unit: size of one fabric unit in metres.
+        up_axis: "Y" or "Z".
+        hang_direction: f32 (3,) unit vector that separates vertical from horizontal stretch.
+        source_sha256: hash of the input mesh file's bytes ("" if built in memory).
+        cook_options: canonical JSON of the cook options that produced this fabric.
+    """
+
+    rest_pos: np.ndarray
+    particle_inv_mass: np.ndarray
+    particle_area: np.ndarray
+    particle_max_distance: np.ndarray
+    triangles: np.ndarray
+    face_vertex_counts: np.ndarray
+    face_vertex_indices: np.ndarray
+    face_vertex_uv: np.ndarray
+    phase_type: np.ndarray
+    phase_set_offsets: np.ndarray
+    set_offsets: np.ndarray
+    constraint_indices: np.ndarray
+    constraint_rest_length: np.ndarray
+    constraint_stiffness: np.ndarray
+    tether_anchor: np.ndarray
+    tether_rest_length: np.ndarray
+    virtual_particles: np.ndarray
+    virtual_particle_weights: np.ndarray
+    virtual_batch_offsets: np.ndarray
+    meters_per_unit: float = 1.0
+    up_axis: str = "Y"
+    hang_direction: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.array([0.0, -1.0, 0.0], np.float32)
+    )
+    source_sha256: str = ""
+    cook_options: str = "{}"
+
+    # ----------------------------------------------------------------- derived sizes
+    @property
+    def particle_count(self) -> int:
+        return int(self.rest_pos.shape[0])
+
+    @property
+    def phase_count(self) -> int:
+        return int(self.phase_type.shape[0])
+
+    @property
+    def set_count(self) -> int:
+        return int(self.set_offsets.shape[0]) - 1
+
+    @property
+    def constraint_count(self) -> int:
+        return int(self.constraint_indices.shape[0])
+
+    @property
+    def tethers_per_particle(self) -> int:
+        n = self.particle_count
+        return int(self.tether_anchor.shape[0]) // n if n else 0
+
+    @property
+    def pinned(self) -> np.ndarray:
+        """Boolean (n,) mask of pinned particles."""
+        return self.particle_inv_mass == 0
+
+    def phase_constraints(self, phase: int) -> slice:
+        """Slice of the constraint arrays that belongs to phase ``phase``."""
+        first_set = self.phase_set_offsets[phase]
+        last_set = self.phase_set_offsets[phase + 1]
+        return slice(int(self.set_offsets[first_set]), int(self.set_offsets[last_set]))
+
+    def replace(self, **changes) -> "Fabric":
+        return dataclasses.replace(self, **changes)
+
+    # ----------------------------------------------------------------- validation
+    def validate(self) -> None:
+        """Check dtypes, shapes, index ranges, CSR monotonicity and conflict-freedom.
+
+        Raises FabricError naming the first offending field and element.
+        """
+        _validate(self)
+
+
+def _fail(field: str, message: str) -> None:
+    raise FabricError(f"fabric field '{field}': {message}")
+
+
+def _check_dtype_shape(fabric: Fabric) -> None:
+    n = fabric.particle_count
+    for name, dtype, shape in ARRAY_FIELDS:
+        array = getattr(fabric, name)
+        if not isinstance(array, np.ndarray):
+            _fail(name, f"expected a numpy array, got {type(array).__name__}")
+        if array.dtype != dtype:
+            _fail(name, f"dtype {array.dtype}, expected {np.dtype(dtype)}")
+        if array.ndim != len(shape):
+            _fail(name, f"has {array.ndim} dimensions, expected {len(shape)}")
+        for axis, dim in enumerate(shape):
+            if isinstance(dim, int) and array.shape[axis] != dim:
+                _fail(name, f"shape {array.shape}, axis {axis} must be {dim}")
+            if dim == "n" and array.shape[axis] != n:
+                _fail(name, f"shape {array.shape}, axis {axis} must be the particle count {n}")
+        if array.dtype.kind == "f":
+            # +inf is meaningful only as "no motion constraint" in particle_max_distance.
+            ok = np.isfinite(array)
+            if name == "particle_max_distance":
+                ok |= np.isposinf(array)
+            if not ok.all():
+                bad = int(np.flatnonzero(~ok.reshape(ok.shape[0], -1).all(axis=1))[0])
+                _fail(name, f"row {bad} is NaN or infinite")
+
+
+def _check_csr(name: str, offsets: np.ndarray, end: int) -> None:
+    if offsets.shape[0] == 0:
+        _fail(name, "must have at least one entry (the leading 0)")
+    if offsets[0] != 0:
+        _fail(name, f"must start at 0, starts at {offsets[0]}")
+    steps = np.diff(offsets)
+    if np.any(steps < 0):
+        _fail(name, f"decreases at index {int(np.flatnonzero(steps < 0)[0]) + 1}")
+    if offsets[-1] != end:
+        _fail(name, f"ends at {offsets[-1]}, expected {end}")
+
+
+def _check_index_range(name: str, indices: np.ndarray, count: int) -> None:
+    if indices.size and (indices.min() < 0 or indices.max() >= count):
+        flat = indices.reshape(indices.shape[0], -1)
+        row = int(np.flatnonzero(((flat < 0) | (flat >= count)).any(axis=1))[0])
+        _fail(name, f"row {row} holds {flat[row].tolist()}, outside [0, {count})")
+
+
+def conflicting_set(fabric: Fabric) -> tuple[int, int] | None:
+    """Return (set, particle) for the first set in which a movable particle appears twice."""
+    movable = fabric.particle_inv_mass > 0
+    for s in range(fabric.set_count):
+        pairs = fabric.constraint_indices[fabric.set_offsets[s] : fabric.set_offsets[s + 1]]
+        used = pairs.reshape(-1)
+        used = used[movable[used]]
+        counts = np.bincount(used, minlength=0)
+        if counts.size and counts.max() > 1:
+            return s, int(np.argmax(counts))
+    return None
+
+
+def _validate(fabric: Fabric) -> None:
+    _check_dtype_shape(fabric)
+    n = fabric.particle_count
+    if n == 0:
+        _fail("rest_pos", "fabric has no particles")
+    if np.any(fabric.particle_inv_mass < 0):
+        _fail("particle_inv_mass", "holds negative values")
+    _check_index_range("triangles", fabric.triangles, n)
+    _check_index_range("face_vertex_indices", fabric.face_vertex_indices[:, None], n)
+    if np.any(fabric.face_vertex_counts < 3):
+        _fail("face_vertex_counts", "every face needs at least 3 vertices")
+    if int(fabric.face_vertex_counts.sum()) != fabric.face_vertex_indices.shape[0]:
+        _fail("face_vertex_indices", "length differs from the sum of face_vertex_counts")
+    if fabric.face_vertex_uv.shape[0] not in (0, fabric.face_vertex_indices.shape[0]):
+        _fail("face_vertex_uv", "must be empty or hold one UV per face vertex")
+    _check_csr("phase_set_offsets", fabric.phase_set_offsets, fabric.set_count)
+    if fabric.phase_set_offsets.shape[0] != fabric.phase_count + 1:
+        _fail("phase_set_offsets", "length must be phase count + 1")
+    valid_types = {int(t) for t in PhaseType}
+    for i, t in enumerate(fabric.phase_type.tolist()):
+        if t not in valid_types:
+            _fail("phase_type", f"phase {i} has unknown type {t}")
+    _check_csr("set_offsets", fabric.set_offsets, fabric.constraint_count)
+    _check_index_range("constraint_indices", fabric.constraint_indices, n)
+    c = fabric.constraint_count
+    for name in ("constraint_rest_length", "constraint_stiffness"):
+        if getattr(fabric, name).shape[0] != c:
+            _fail(name, f"length must equal the constraint count {c}")
+    if np.any(fabric.constraint_rest_length < 0):
+        _fail("constraint_rest_length", "holds negative lengths")
+    if np.any((fabric.constraint_stiffness < 0) | (fabric.constraint_stiffness > 1)):
+        _fail("constraint_stiffness", "values must lie in [0, 1]")
+    if fabric.tether_anchor.shape[0] % n:
+        _fail("tether_anchor", f"length must be a multiple of the particle count {n}")
+    if fabric.tether_rest_length.shape[0] != fabric.tether_anchor.shape[0]:
+        _fail("tether_rest_length", "length must equal tether_anchor's")
+    _check_index_range("tether_anchor", fabric.tether_anchor[:, None], n)
+    if fabric.tether_anchor.size:
+        anchors = fabric.tether_anchor
+        owners = np.arange(anchors.shape[0]) % n
+        bad = (anchors != owners) & (fabric.particle_inv_mass[anchors] != 0)
+        if np.any(bad):
+            _fail("tether_anchor", f"tether {int(np.flatnonzero(bad)[0])} anchors to a movable particle")
+    _check_index_range("virtual_particles", fabric.virtual_particles[:, :3], n)
+    _check_index_range(
+        "virtual_particles", fabric.virtual_particles[:, 3:], fabric.virtual_particle_weights.shape[0]
+    )
+    _check_csr("virtual_batch_offsets", fabric.virtual_batch_offsets, fabric.virtual_particles.shape[0])
+    if fabric.up_axis not in ("Y", "Z"):
+        _fail("up_axis", f"is '{fabric.up_axis}', expected 'Y' or 'Z'")
+    if not (fabric.meters_per_unit > 0):
+        _fail("meters_per_unit", "must be positive")
+    conflict = conflicting_set(fabric)
+    if conflict is not None:
+        _fail("set_offsets", f"set {conflict[0]} uses movable particle {conflict[1]} twice")
