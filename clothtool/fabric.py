@@ -71,8 +71,8 @@ class Fabric:
         rest_pos: f32 (n,3) particle positions of the cooking pose, in fabric units.
         particle_inv_mass: f32 (n,) inverse mass in 1/kg for an areal density of 1 kg/m^2;
             0 marks a pinned particle. Divide by the material's areal density to get 1/kg.
-        particle_area: f32 (n,) lumped area per particle in m^2 (a third of each adjacent
-            triangle).
+        particle_area: f32 (n,) lumped area per particle in m^2 (each face's area split
+            evenly among its corners).
         particle_max_distance: f32 (n,) motion-constraint radius in fabric units; +inf where
             the particle is free.
         triangles: i32 (t,3) triangulation used by wind, collision and the implicit solver.

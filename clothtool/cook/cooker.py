@@ -195,7 +195,7 @@ def cook_fabric(mesh: ClothMesh, options: CookOptions = CookOptions(), source_sh
         max_distance = paint.max_distance_from_attribute(clean, options.max_distance_attr, *options.max_distance_range)
     movable = ~pinned
     triangles, _ = topology.triangulate(clean.face_vertex_counts, clean.face_vertex_indices)
-    area = topology.vertex_areas(pos, triangles) * meters_per_unit**2
+    area = topology.vertex_areas(pos, clean.face_vertex_counts, clean.face_vertex_indices) * meters_per_unit**2
     inv_mass = np.where(pinned, 0.0, 1.0 / area).astype(np.float32)
     lap("paint")
 

@@ -97,10 +97,16 @@ def triangle_min_angles(pos: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.min(angles, axis=0)
 
 
-def vertex_areas(pos: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """f64 (n,) lumped area per vertex: a third of each adjacent triangle's area."""
-    areas = triangle_areas(pos, triangles) / 3.0
-    return np.bincount(triangles.reshape(-1), weights=np.repeat(areas, 3), minlength=pos.shape[0])
+def vertex_areas(pos: np.ndarray, counts: np.ndarray, indices: np.ndarray) -> np.ndarray:
+    """f64 (n,) lumped area per vertex: each polygon's area split evenly among its corners.
+
+    (Splitting the fan triangles instead would give a quad's first corner twice the share
+    of the others, and a uniform quad grid uneven masses.)
+    """
+    triangles, tri_face = triangulate(counts, indices)
+    face_area = np.bincount(tri_face, weights=triangle_areas(pos, triangles), minlength=counts.shape[0])
+    share = np.repeat(face_area / counts, counts)
+    return np.bincount(indices, weights=share, minlength=pos.shape[0])
 
 
 def weld_map(pos: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,1 @@
+"""Reading garment meshes and writing bake results: one module per kind of file."""
