@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from clothtool import __version__
+from clothtool.cli.bake import bake
 from clothtool.cli.cook import cook
 from clothtool.cli.inspect import inspect
 
@@ -16,4 +17,5 @@ def main() -> None:
 
 
 main.add_command(cook)
+main.add_command(bake)
 main.add_command(inspect)

@@ -1,0 +1,330 @@
+"""bake(): simulate a scene and stream its frames into a cache. The library entry point.
+
+The frame loop interleaves cloths iteration by iteration (so that cloths can see each
+other's current state), measures every cloth after each frame, stops with UnstableError
+on NaN/Inf or runaway speed (keeping the frames written so far in a ``.partial`` file), and
+writes each frame as soon as it is simulated, so memory does not grow with the frame count.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from clothtool import __version__
+from clothtool.errors import UnstableError
+from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer, partial_path
+from clothtool.profile import StageProfiler
+from clothtool.scene.scene import Scene
+from clothtool.solver.cloth import ClothSolver
+from clothtool.solver.environment import Environment
+from clothtool.solver.frame import Pose
+from clothtool.solver.measure import ClothMeter
+from clothtool.solver.model import build_model
+
+STATS_FIELDS = ("max_speed", "kinetic_energy", "max_strain", "tether_stretch")
+
+
+@dataclasses.dataclass(frozen=True)
+class BakeOptions:
+    """percentiles: also compute p99 strain per frame (costs a sort per phase type);
+    compression / save_every: override the scene's output settings when given;
+    progress: called as progress(frames_done, frames_total) after each frame."""
+
+    percentiles: bool = False
+    compression: str | None = None
+    save_every: int | None = None
+    progress: Callable[[int, int], None] | None = None
+
+
+@dataclasses.dataclass
+class BakeStats:
+    """What a bake did; ``to_dict`` is the JSON report (no timestamps, hosts or paths)."""
+
+    scene: str
+    output: str
+    fps: float
+    start_frame: int
+    end_frame: int
+    frames_simulated: int = 0
+    iterations_per_frame: int = 0
+    stages: list[str] = dataclasses.field(default_factory=list)
+    cloths: dict[str, dict] = dataclasses.field(default_factory=dict)
+    per_frame: list[dict] = dataclasses.field(default_factory=list)
+    profile: list[dict] = dataclasses.field(default_factory=list)
+    wall_s: float = 0.0
+    cpu_s: float = 0.0
+    jit_s: float = 0.0
+    status: str = "ok"
+    failure: dict | None = None
+    partial_output: str | None = None
+    solver: dict = dataclasses.field(default_factory=dict)
+
+    @property
+    def simulation_s(self) -> float:
+        return max(self.wall_s - self.jit_s, 0.0)
+
+    def overall(self) -> dict:
+        """Whole-bake aggregates over the per-frame stats."""
+        summary: dict = {}
+        for name in self.cloths:
+            frames = [f["cloths"][name] for f in self.per_frame if name in f["cloths"]]
+            if not frames:
+                continue
+            strain: dict = {}
+            for label in frames[0]["strain"]:
+                values = [fr["strain"][label] for fr in frames]
+                entry = {"max": max(v["max"] for v in values), "mean": float(np.mean([v["mean"] for v in values]))}
+                if "p99" in values[0]:
+                    entry["p99"] = max(v["p99"] for v in values)
+                strain[label] = entry
+            entry = {
+                "strain": strain,
+                "max_speed": max(f["max_speed"] for f in frames),
+                "max_kinetic_energy": max(f["kinetic_energy"] for f in frames),
+                "finite": all(f["finite"] for f in frames),
+            }
+            if "tether_stretch" in frames[0]:
+                entry["max_tether_stretch"] = max(f["tether_stretch"] for f in frames)
+            summary[name] = entry
+        return summary
+
+    def to_dict(self) -> dict:
+        particles = sum(c["particles"] for c in self.cloths.values())
+        sim = self.simulation_s
+        return {
+            "clothtool": __version__,
+            "scene": self.scene,
+            "output": self.output,
+            "status": self.status,
+            "failure": self.failure,
+            "partial_output": self.partial_output,
+            "frames": {
+                "start": self.start_frame,
+                "end": self.end_frame,
+                "simulated": self.frames_simulated,
+                "fps": self.fps,
+            },
+            "solver": self.solver,
+            "iterations_per_frame": self.iterations_per_frame,
+            "stages": self.stages,
+            "cloths": self.cloths,
+            "timing": {
+                "wall_s": self.wall_s,
+                "cpu_s": self.cpu_s,
+                "jit_warm_up_s": self.jit_s,
+                "simulation_s": sim,
+                "frames_per_second": self.frames_simulated / sim if sim > 0 else 0.0,
+                "particle_iterations_per_second": (
+                    particles * self.iterations_per_frame * self.frames_simulated / sim if sim > 0 else 0.0
+                ),
+            },
+            "profile": self.profile,
+            "overall": self.overall(),
+            "per_frame": self.per_frame,
+        }
+
+
+def _track_pose(track):
+    def pose(time: float) -> Pose:
+        sample = track.sample(time)
+        return Pose(sample.rotation_matrix(), np.asarray(sample.translation, np.float64))
+
+    return pose
+
+
+def make_solvers(scene: Scene, profiler: StageProfiler) -> list[ClothSolver]:
+    """One ClothSolver per cloth instance of ``scene``."""
+    wind = None
+    density = 1.0
+    if scene.wind is not None:
+        wind = scene.wind.velocity_at
+        density = scene.wind.fluid_density
+    environment = Environment(np.asarray(scene.gravity, np.float64), wind, density)
+    solvers = []
+    for cloth in scene.cloths:
+        model = build_model(
+            cloth.name, cloth.fabric, cloth.material, cloth.placement, scene.meters_per_unit, scene.up_axis,
+            cloth.motion, cloth.backstop,
+        )
+        track = _track_pose(cloth.track) if cloth.track is not None else None
+        teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
+        solvers.append(
+            ClothSolver(model, scene.solver, environment, profiler, track, teleports, cloth.initial_velocity)
+        )
+    return solvers
+
+
+def _topology(solver: ClothSolver, attributes: frozenset[str]) -> ClothTopology:
+    fabric = solver.model.fabric
+    primvars = {"inv_mass": solver.model.inv_mass}
+    if solver.model.has_motion_constraints:
+        primvars["max_distance"] = np.where(
+            np.isfinite(solver.model.max_distance), solver.model.max_distance, -1.0
+        ).astype(np.float32)
+    return ClothTopology(
+        name=solver.model.name,
+        rest_pos=solver.world_points(),
+        face_vertex_counts=fabric.face_vertex_counts,
+        face_vertex_indices=fabric.face_vertex_indices,
+        face_vertex_uv=fabric.face_vertex_uv if fabric.face_vertex_uv.shape[0] else None,
+        vertex_primvars=primvars,
+    )
+
+
+def _frame_stats_fields(stats: dict) -> dict[str, float]:
+    strains = [v["max"] for v in stats["strain"].values()]
+    return {
+        "max_speed": stats["max_speed"],
+        "kinetic_energy": stats["kinetic_energy"],
+        "max_strain": max(strains) if strains else 0.0,
+        "tether_stretch": stats.get("tether_stretch", 0.0),
+    }
+
+
+def _check_stable(scene: Scene, frame: int, solver: ClothSolver, stats: dict) -> None:
+    name = solver.model.name
+    if not stats["finite"]:
+        raise UnstableError(
+            f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle "
+            f"{stats['nonfinite_particle']} is NaN or infinite; lower the time step (raise solver.frequency) or check the inputs"
+        )
+    if stats["max_speed"] > scene.solver.max_speed:
+        raise UnstableError(
+            f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle {stats['fastest_particle']} "
+            f"moves at {stats['max_speed']:.3g} m/s (limit solver.max_speed = {scene.solver.max_speed:g}); "
+            "raise solver.frequency or damping"
+        )
+
+
+def bake(scene: Scene, output: str | Path, options: BakeOptions = BakeOptions()) -> BakeStats:
+    """Simulate ``scene`` from its start to its end frame into the cache ``output``.
+
+    The start frame is the rest pose; each later frame is one frame time of simulation.
+    Returns the stats; raises UnstableError (with ``.stats``) when the bake goes unstable,
+    after keeping the frames written so far under the partial name.
+    """
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    profiler = StageProfiler()
+    solvers = make_solvers(scene, profiler)
+    meters = [ClothMeter(solver) for solver in solvers]
+    stats = BakeStats(
+        scene=scene.name,
+        output=Path(str(output)).name,
+        fps=scene.fps,
+        start_frame=scene.start_frame,
+        end_frame=scene.end_frame,
+        solver=dataclasses.asdict(scene.solver),
+        cloths={
+            s.model.name: {
+                "particles": s.model.particle_count,
+                "constraints": int(s.model.constraint_indices.shape[0]),
+                "source": c.source,
+                "stages": s.stage_names,
+            }
+            for s, c in zip(solvers, scene.cloths)
+        },
+    )
+    stages_seen = []
+    for solver in solvers:
+        stages_seen += [name for name in solver.stage_names if name not in stages_seen]
+    stats.stages = stages_seen
+
+    with profiler.stage("jit warm-up"):
+        for solver, meter in zip(solvers, meters):
+            solver.warm_up()
+            meter.warm_up()
+
+    attributes = scene.output.attributes
+    cache_options = CacheOptions(
+        compression=options.compression or scene.output.compression,
+        save_every=options.save_every or scene.output.save_every,
+    )
+    header = CacheHeader(
+        fps=scene.fps,
+        start_frame=scene.start_frame,
+        end_frame=scene.end_frame,
+        meters_per_unit=scene.meters_per_unit,
+        up_axis=scene.up_axis,
+        cloths=tuple(_topology(solver, attributes) for solver in solvers),
+        attributes=frozenset(attributes),
+        stats_fields=STATS_FIELDS if "stats" in attributes else (),
+        metadata={"scene": scene.name, "generator": f"clothtool {__version__}"},
+    )
+    total = scene.frame_count
+    frame_dt = 1.0 / scene.fps
+    writer = open_cache_writer(output, cache_options)
+    try:
+        with writer:
+            writer.write_header(header)
+            with profiler.stage("write"):
+                writer.write_frame(_initial_frame(scene, solvers, attributes))
+            if options.progress:
+                options.progress(1, total)
+            for done, frame in enumerate(range(scene.start_frame + 1, scene.end_frame + 1), start=2):
+                plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt) for s in solvers]
+                stats.iterations_per_frame = max(p.iterations for p in plans)
+                for index in range(stats.iterations_per_frame):
+                    for solver, plan in zip(solvers, plans):
+                        if index < plan.iterations:
+                            solver.iterate(solver.iteration(plan, index))
+                with profiler.stage("stats"):
+                    per_cloth = {}
+                    for solver, meter, plan in zip(solvers, meters, plans):
+                        cloth_stats = meter.measure(plan.h, options.percentiles)
+                        per_cloth[solver.model.name] = cloth_stats
+                    stats.per_frame.append({"frame": frame, "cloths": per_cloth})
+                    stats.frames_simulated += 1
+                    for solver in solvers:
+                        _check_stable(scene, frame, solver, per_cloth[solver.model.name])
+                with profiler.stage("write"):
+                    writer.write_frame(_frame_data(frame, solvers, plans, per_cloth, attributes))
+                if options.progress:
+                    options.progress(done, total)
+            writer.commit()
+    except UnstableError as exc:
+        stats.status = "unstable"
+        stats.failure = {"frame": stats.per_frame[-1]["frame"] if stats.per_frame else scene.start_frame, "message": str(exc)}
+        partial = partial_path(output)
+        stats.partial_output = partial.name if partial.exists() else None
+        _finish(stats, profiler, wall0, cpu0)
+        exc.stats = stats
+        raise
+    _finish(stats, profiler, wall0, cpu0)
+    return stats
+
+
+def _finish(stats: BakeStats, profiler: StageProfiler, wall0: float, cpu0: float) -> None:
+    stats.wall_s = time.perf_counter() - wall0
+    stats.cpu_s = time.process_time() - cpu0
+    stats.jit_s = profiler.seconds.get("jit warm-up", 0.0)
+    stats.profile = profiler.table(stats.frames_simulated)
+
+
+def _initial_frame(scene: Scene, solvers: list[ClothSolver], attributes) -> FrameData:
+    velocities = None
+    if "velocities" in attributes:
+        velocities = []
+        for solver, cloth in zip(solvers, scene.cloths):
+            v = np.zeros((solver.model.particle_count, 3), np.float32)
+            v[solver.model.inv_mass > 0] = cloth.initial_velocity
+            velocities.append(v)
+        velocities = tuple(velocities)
+    stats = None
+    if "stats" in attributes:
+        stats = tuple({field: 0.0 for field in STATS_FIELDS} for _ in solvers)
+    return FrameData(scene.start_frame, tuple(s.world_points() for s in solvers), velocities, stats)
+
+
+def _frame_data(frame, solvers, plans, per_cloth, attributes) -> FrameData:
+    velocities = None
+    if "velocities" in attributes:
+        velocities = tuple(s.world_velocities(p.h) for s, p in zip(solvers, plans))
+    stats = None
+    if "stats" in attributes:
+        stats = tuple(_frame_stats_fields(per_cloth[s.model.name]) for s in solvers)
+    return FrameData(frame, tuple(s.world_points() for s in solvers), velocities, stats)

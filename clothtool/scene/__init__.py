@@ -1,0 +1,1 @@
+"""Scenes: TOML scene files, tracks and colliders."""

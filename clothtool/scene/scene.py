@@ -1,0 +1,336 @@
+"""Scenes: a versioned TOML file (``formats/scene/v1.md``) turned into a validated Scene.
+
+``load_scene(path, overrides)`` reads the TOML, applies ``--set`` overrides to the raw
+tables, checks every key (unknown keys are errors that list the allowed ones), resolves
+paths relative to the scene file, loads or cooks each cloth's fabric and loads the presets.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from pathlib import Path
+
+import numpy as np
+
+from clothtool.errors import ClothtoolError, SceneError
+from clothtool.fabric import Fabric
+from clothtool.presets import read_toml
+from clothtool.scene.overrides import apply_overrides
+from clothtool.scene.trackload import load_track
+from clothtool.scene.tracks import Track, euler_xyz_to_quat, quat_to_matrix
+from clothtool.solver.config import Material, SolverConfig, load_material, load_solver
+from clothtool.solver.model import BackstopSettings, MotionSettings, Placement
+
+FORMAT_VERSION = 1
+TOP_LEVEL_KEYS = ("version", "scene", "solver", "output", "wind", "track", "cloth", "collider")
+SCENE_KEYS = ("name", "fps", "frames", "meters_per_unit", "up_axis", "gravity")
+OUTPUT_KEYS = ("attributes", "compression", "save_every")
+OUTPUT_ATTRIBUTES = ("velocities", "rest", "stats", "colliders")
+WIND_KEYS = ("velocity", "track", "fluid_density")
+CLOTH_KEYS = (
+    "fabric", "mesh", "cook", "material", "translate", "rotate", "rotate_euler", "scale",
+    "track", "motion", "backstop", "initial_velocity",
+)
+STANDARD_GRAVITY = 9.81
+COMPRESSIONS = ("gzip", "lzf", "none")
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class ClothInstance:
+    name: str
+    source: str  # the fabric or mesh path as the scene gives it
+    fabric: Fabric
+    material: Material
+    placement: Placement
+    track: Track | None
+    motion: MotionSettings
+    backstop: BackstopSettings | None
+    initial_velocity: np.ndarray
+    cook_warnings: tuple[str, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class OutputSettings:
+    attributes: frozenset[str] = frozenset({"velocities"})
+    compression: str = "gzip"
+    save_every: int = 10
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class WindSettings:
+    velocity: np.ndarray  # (3,) constant velocity, scene units/s (added to the track's)
+    track: Track | None  # its translation channel is a velocity in scene units/s
+    fluid_density: float = 1.0
+
+    def velocity_at(self, time: float) -> np.ndarray:
+        velocity = self.velocity
+        if self.track is not None:
+            velocity = velocity + self.track.sample(time).translation
+        return velocity
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Scene:
+    name: str
+    path: Path
+    fps: float
+    start_frame: int
+    end_frame: int
+    meters_per_unit: float
+    up_axis: str
+    gravity: np.ndarray
+    solver: SolverConfig
+    cloths: tuple[ClothInstance, ...]
+    wind: WindSettings | None
+    tracks: dict[str, Track]
+    output: OutputSettings
+    colliders: tuple = ()
+
+    @property
+    def frame_count(self) -> int:
+        return self.end_frame - self.start_frame + 1
+
+    def frame_time(self, frame: int) -> float:
+        """Seconds at ``frame`` (frame f happens at f / fps)."""
+        return frame / self.fps
+
+
+class _Context:
+    """Error messages name the scene file and the table/key."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.base = path.parent
+
+    def fail(self, where: str, message: str):
+        raise SceneError(f"{self.path}: [{where}] {message}")
+
+    def check_keys(self, table, allowed, where: str) -> dict:
+        if not isinstance(table, dict):
+            self.fail(where, f"must be a table, got {table!r}")
+        unknown = [k for k in table if k not in allowed]
+        if unknown:
+            self.fail(where, f"unknown key '{unknown[0]}'; allowed keys: {', '.join(allowed)}")
+        return table
+
+    def number(self, table, key, where, default=None, positive=False):
+        value = table.get(key, default)
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+            self.fail(where, f"key '{key}' must be a number, got {value!r}")
+        if positive and not value > 0:
+            self.fail(where, f"key '{key}' = {value!r} must be positive")
+        return float(value)
+
+    def vector(self, table, key, where, size=3, default=None):
+        value = table.get(key, default)
+        try:
+            array = np.asarray(value, np.float64)
+        except (TypeError, ValueError):
+            array = np.zeros(0)
+        if array.shape != (size,) or not np.isfinite(array).all():
+            self.fail(where, f"key '{key}' must be a list of {size} finite numbers, got {value!r}")
+        return array
+
+
+def _scene_table(ctx: _Context, table: dict, frames: tuple[int, int] | None, default_name: str):
+    ctx.check_keys(table, SCENE_KEYS, "scene")
+    fps = ctx.number(table, "fps", "scene", default=24.0)
+    if not fps > 0:
+        ctx.fail("scene", f"key 'fps' = {fps:g} must be positive")
+    frame_range = frames if frames is not None else table.get("frames", [1, 48])
+    if (
+        not isinstance(frame_range, (list, tuple))
+        or len(frame_range) != 2
+        or not all(isinstance(f, int) and not isinstance(f, bool) for f in frame_range)
+    ):
+        ctx.fail("scene", f"key 'frames' must be [start, end] integers, got {frame_range!r}")
+    start, end = frame_range
+    if end < start:
+        ctx.fail("scene", f"key 'frames' = [{start}, {end}] runs backwards; give [start, end] with end >= start")
+    mpu = ctx.number(table, "meters_per_unit", "scene", default=1.0)
+    if not mpu > 0:
+        ctx.fail("scene", f"key 'meters_per_unit' = {mpu:g} must be positive (1 for metres, 0.01 for centimetres)")
+    up_axis = table.get("up_axis", "Y")
+    if up_axis not in ("Y", "Z"):
+        ctx.fail("scene", f"key 'up_axis' = {up_axis!r}; use \"Y\" or \"Z\"")
+    up = np.array([0.0, 1.0, 0.0]) if up_axis == "Y" else np.array([0.0, 0.0, 1.0])
+    if "gravity" in table:
+        gravity = ctx.vector(table, "gravity", "scene")
+    else:
+        gravity = -up * STANDARD_GRAVITY / mpu
+    if np.linalg.norm(gravity) * mpu > 1000.0:
+        ctx.fail("scene", f"key 'gravity' is {np.linalg.norm(gravity) * mpu:.3g} m/s^2; it is in scene units/s^2 (check meters_per_unit)")
+    name = str(table.get("name", default_name))
+    return name, fps, int(start), int(end), mpu, up_axis, gravity
+
+
+def _output_table(ctx: _Context, table: dict) -> OutputSettings:
+    ctx.check_keys(table, OUTPUT_KEYS, "output")
+    attributes = table.get("attributes", ["velocities"])
+    if not isinstance(attributes, list) or any(a not in OUTPUT_ATTRIBUTES for a in attributes):
+        ctx.fail("output", f"key 'attributes' = {attributes!r}; choose from {', '.join(OUTPUT_ATTRIBUTES)}")
+    compression = table.get("compression", "gzip")
+    if compression not in COMPRESSIONS:
+        ctx.fail("output", f"key 'compression' = {compression!r}; use one of {', '.join(COMPRESSIONS)}")
+    save_every = table.get("save_every", 10)
+    if isinstance(save_every, bool) or not isinstance(save_every, int) or save_every < 1:
+        ctx.fail("output", f"key 'save_every' = {save_every!r} must be a positive integer")
+    return OutputSettings(frozenset(attributes), compression, save_every)
+
+
+def _rotation(ctx: _Context, table: dict, where: str) -> np.ndarray:
+    if "rotate" in table and "rotate_euler" in table:
+        ctx.fail(where, "give either 'rotate' (quaternion w, x, y, z) or 'rotate_euler' (degrees), not both")
+    if "rotate" in table:
+        q = ctx.vector(table, "rotate", where, size=4)
+        if np.linalg.norm(q) < 1e-9:
+            ctx.fail(where, "key 'rotate' is a zero quaternion; give (w, x, y, z) of a rotation")
+        return quat_to_matrix(q)
+    if "rotate_euler" in table:
+        return quat_to_matrix(euler_xyz_to_quat(ctx.vector(table, "rotate_euler", where)))
+    return np.eye(3)
+
+
+def _fabric_of(ctx: _Context, name: str, table: dict, strict: bool) -> tuple[str, Fabric, tuple[str, ...]]:
+    where = f"cloth.{name}"
+    if ("fabric" in table) == ("mesh" in table):
+        ctx.fail(where, "give either 'fabric' (a cooked .fabric.h5) or 'mesh' (cooked when the scene loads)")
+    if "fabric" in table:
+        from clothtool.io.fabric_file import read_fabric
+
+        if "cook" in table:
+            ctx.fail(where, "key 'cook' applies to 'mesh' only; cook options of a fabric were fixed when it was cooked")
+        source = str(table["fabric"])
+        try:
+            return source, read_fabric(ctx.base / source), ()
+        except ClothtoolError as exc:
+            ctx.fail(where, f"fabric: {exc}")
+    from clothtool.cook.cooker import CookOptions, cook_fabric
+    from clothtool.io.meshin import read_mesh
+    from clothtool.presets import apply_mapping, load_preset
+
+    source = str(table["mesh"])
+    cook = table.get("cook", {})
+    if isinstance(cook, str):
+        cook = {"preset": cook}
+    if not isinstance(cook, dict):
+        ctx.fail(where, "key 'cook' must be a table of cook options (or a cook preset name)")
+    cook = dict(cook)
+    try:
+        options = CookOptions()
+        preset = cook.pop("preset", None)
+        if preset is not None:
+            mapping, label = load_preset("cook", preset)
+            options = apply_mapping(options, mapping, label)
+        if "pin_file" in cook:
+            cook["pin_file"] = str(ctx.base / str(cook["pin_file"]))
+        options = apply_mapping(options, cook, f"{ctx.path}: [{where}.cook]")
+        options = dataclasses.replace(options, strict=strict)
+        mesh_path = ctx.base / source
+        mesh = read_mesh(mesh_path)
+        result = cook_fabric(mesh, options, hashlib.sha256(mesh_path.read_bytes()).hexdigest())
+    except ClothtoolError as exc:
+        ctx.fail(where, f"mesh: {exc}")
+    return source, result.fabric, tuple(result.warnings)
+
+
+def _cloth(ctx: _Context, name: str, table: dict, tracks: dict[str, Track], strict: bool) -> ClothInstance:
+    where = f"cloth.{name}"
+    ctx.check_keys(table, CLOTH_KEYS, where)
+    source, fabric, warnings = _fabric_of(ctx, name, table, strict)
+    try:
+        material = load_material(table.get("material", "cotton"), f"{ctx.path}: [{where}.material]")
+    except ClothtoolError as exc:
+        ctx.fail(where, f"material: {exc}")
+    scale = ctx.number(table, "scale", where, default=1.0, positive=True)
+    placement = Placement(
+        scale=scale,
+        rotation=_rotation(ctx, table, where),
+        translation=ctx.vector(table, "translate", where, default=[0.0, 0.0, 0.0]),
+    )
+    track = None
+    if "track" in table:
+        track_name = table["track"]
+        if track_name not in tracks:
+            ctx.fail(where, f"key 'track' names '{track_name}', but the scene has no [track.{track_name}]; tracks: {', '.join(tracks) or 'none'}")
+        track = tracks[track_name]
+    motion_table = ctx.check_keys(table.get("motion", {}), ("scale", "bias", "stiffness"), f"{where}.motion")
+    motion = MotionSettings(
+        scale=ctx.number(motion_table, "scale", f"{where}.motion", default=1.0),
+        bias=ctx.number(motion_table, "bias", f"{where}.motion", default=0.0),
+        stiffness=ctx.number(motion_table, "stiffness", f"{where}.motion", default=1.0),
+    )
+    if not 0.0 <= motion.stiffness <= 1.0:
+        ctx.fail(f"{where}.motion", "key 'stiffness' must lie in [0, 1]")
+    backstop = None
+    if "backstop" in table:
+        back = ctx.check_keys(table["backstop"], ("radius", "distance"), f"{where}.backstop")
+        backstop = BackstopSettings(
+            radius=ctx.number(back, "radius", f"{where}.backstop", positive=True),
+            distance=ctx.number(back, "distance", f"{where}.backstop", default=0.0),
+        )
+    velocity = ctx.vector(table, "initial_velocity", where, default=[0.0, 0.0, 0.0])
+    return ClothInstance(name, source, fabric, material, placement, track, motion, backstop, velocity, warnings)
+
+
+def _wind(ctx: _Context, table: dict, tracks: dict[str, Track]) -> WindSettings:
+    ctx.check_keys(table, WIND_KEYS, "wind")
+    track = None
+    if "track" in table:
+        if table["track"] not in tracks:
+            ctx.fail("wind", f"key 'track' names '{table['track']}', which is not a [track.*] of this scene")
+        track = tracks[table["track"]]
+    velocity = ctx.vector(table, "velocity", "wind", default=[0.0, 0.0, 0.0])
+    density = ctx.number(table, "fluid_density", "wind", default=1.0)
+    if density < 0:
+        ctx.fail("wind", "key 'fluid_density' must not be negative")
+    return WindSettings(velocity, track, density)
+
+
+def load_scene(
+    path: str | Path, overrides: list[str] = (), frames: tuple[int, int] | None = None, strict: bool = False
+) -> Scene:
+    """Read and validate a scene file (see module docstring); ``strict`` makes mesh repairs
+    of cloths cooked on the fly errors."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(f"{path}: scene file not found; check the path")
+    raw = read_toml(path, error=SceneError)
+    tables = apply_overrides(raw, list(overrides))
+    ctx = _Context(path)
+    unknown = [k for k in tables if k not in TOP_LEVEL_KEYS]
+    if unknown:
+        raise SceneError(f"{path}: unknown top-level key '{unknown[0]}'; allowed: {', '.join(TOP_LEVEL_KEYS)}")
+    version = tables.get("version", FORMAT_VERSION)
+    if version != FORMAT_VERSION:
+        raise SceneError(f"{path}: scene version {version!r} is not supported; this clothtool reads version {FORMAT_VERSION}")
+    name, fps, start, end, mpu, up_axis, gravity = _scene_table(ctx, tables.get("scene", {}), frames, path.stem)
+    try:
+        solver = load_solver(tables.get("solver", "production"), f"{path}: [solver]")
+    except ClothtoolError as exc:
+        raise SceneError(f"{path}: [solver] {exc}") from None
+    output = _output_table(ctx, tables.get("output", {}))
+    track_tables = tables.get("track", {})
+    if not isinstance(track_tables, dict):
+        ctx.fail("track", "must be tables like [track.NAME]")
+    tracks = {}
+    for track_name, track_table in track_tables.items():
+        try:
+            tracks[track_name] = load_track(track_name, track_table, fps, ctx.base)
+        except ClothtoolError as exc:
+            raise SceneError(f"{path}: {exc}") from None
+    cloth_tables = tables.get("cloth", {})
+    if not isinstance(cloth_tables, dict) or not cloth_tables:
+        raise SceneError(f"{path}: the scene has no cloth; add a [cloth.NAME] table with a 'fabric' or 'mesh'")
+    cloths = tuple(_cloth(ctx, name, table, tracks, strict) for name, table in cloth_tables.items())
+    for cloth in cloths:
+        if not cloth.name.replace("_", "a").isalnum() or cloth.name[0].isdigit():
+            ctx.fail(f"cloth.{cloth.name}", "cloth names must be letters, digits and underscores, not starting with a digit")
+    wind = _wind(ctx, tables["wind"], tracks) if "wind" in tables else None
+    colliders = ()
+    if "collider" in tables:
+        from clothtool.scene.colliders import load_colliders
+
+        colliders = load_colliders(ctx, tables["collider"], tracks)
+    return Scene(name, path, fps, start, end, mpu, up_axis, gravity, solver, cloths, wind, tracks, output, colliders)

@@ -1,0 +1,262 @@
+"""Animated tracks: keyframed or sampled translation, rotation and scale over time.
+
+Rotations are unit quaternions (w, x, y, z), interpolated by slerp along the shorter arc;
+a matrix keyframe is decomposed into translation, rotation and scale first, so matrices
+are never interpolated component-wise. Interpolation is ``step``, ``linear`` or ``cubic``
+(Catmull-Rom on translation and scale; rotation by spherical cubic Bezier through the
+Catmull-Rom tangents, which reduces to slerp for two keys).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from clothtool.errors import SceneError
+
+INTERPOLATIONS = ("step", "linear", "cubic")
+
+
+# ------------------------------------------------------------------------ quaternions
+def quat_normalize(q: np.ndarray) -> np.ndarray:
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return np.array(
+        [
+            aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+        ]
+    )
+
+
+def quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def matrix_to_quat(m: np.ndarray) -> np.ndarray:
+    """Unit quaternion of a rotation matrix (Shepperd's method, numerically safe)."""
+    trace = np.trace(m)
+    if trace > 0:
+        s = 2.0 * np.sqrt(1.0 + trace)
+        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = [(m[2, 1] - m[1, 2]) / s, 0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = [(m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = [(m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s]
+    q = np.asarray(q)
+    return q / np.linalg.norm(q)
+
+
+def euler_xyz_to_quat(degrees) -> np.ndarray:
+    """Rotation about X, then Y, then Z (extrinsic), angles in degrees."""
+    ax, ay, az = np.radians(np.asarray(degrees, np.float64))
+    qx = np.array([np.cos(ax / 2), np.sin(ax / 2), 0.0, 0.0])
+    qy = np.array([np.cos(ay / 2), 0.0, np.sin(ay / 2), 0.0])
+    qz = np.array([np.cos(az / 2), 0.0, 0.0, np.sin(az / 2)])
+    return quat_multiply(qz, quat_multiply(qy, qx))
+
+
+def quat_conjugate(q: np.ndarray) -> np.ndarray:
+    return np.array([q[0], -q[1], -q[2], -q[3]])
+
+
+def quat_log(q: np.ndarray) -> np.ndarray:
+    """Rotation vector / 2 of a unit quaternion (its logarithm's vector part)."""
+    v = q[1:]
+    s = np.linalg.norm(v)
+    if s < 1e-12:
+        return np.zeros(3)
+    return v / s * np.arctan2(s, q[0])
+
+
+def quat_exp(v: np.ndarray) -> np.ndarray:
+    angle = np.linalg.norm(v)
+    if angle < 1e-12:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    return np.concatenate([[np.cos(angle)], np.sin(angle) * v / angle])
+
+
+def slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
+    """Spherical interpolation along the shorter arc."""
+    dot = float(np.dot(a, b))
+    if dot < 0.0:
+        b, dot = -b, -dot
+    if dot > 0.9995:  # nearly parallel: lerp is accurate and avoids dividing by sin ~ 0
+        return quat_normalize(a + t * (b - a))
+    theta = np.arccos(dot)
+    return (np.sin((1 - t) * theta) * a + np.sin(t * theta) * b) / np.sin(theta)
+
+
+def decompose_matrix(m: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """4x4 (column-vector convention: translation in the last column) -> (t, q, scale)."""
+    m = np.asarray(m, np.float64)
+    if m.shape != (4, 4):
+        raise SceneError(f"{where}: a matrix key needs 4 rows of 4 numbers")
+    linear = m[:3, :3]
+    scale = np.linalg.norm(linear, axis=0)
+    if np.any(scale <= 0):
+        raise SceneError(f"{where}: the matrix is singular; give a rotation and a non-zero scale")
+    rotation = linear / scale
+    if np.linalg.det(rotation) < 0:
+        raise SceneError(f"{where}: the matrix mirrors (negative determinant), which a track cannot animate")
+    if not np.allclose(rotation.T @ rotation, np.eye(3), atol=1e-4):
+        raise SceneError(f"{where}: the matrix has shear; tracks take translation, rotation and scale only")
+    return m[:3, 3].copy(), matrix_to_quat(rotation), scale
+
+
+# ------------------------------------------------------------------------ tracks
+@dataclasses.dataclass(frozen=True)
+class TrackSample:
+    translation: np.ndarray  # (3,)
+    rotation: np.ndarray  # (4,) unit quaternion (w, x, y, z)
+    scale: np.ndarray  # (3,)
+
+    def rotation_matrix(self) -> np.ndarray:
+        return quat_to_matrix(self.rotation)
+
+    def matrix(self) -> np.ndarray:
+        """4x4 local->world, column-vector convention (translation in the last column)."""
+        m = np.eye(4)
+        m[:3, :3] = self.rotation_matrix() * self.scale
+        m[:3, 3] = self.translation
+        return m
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Track:
+    """Keys at strictly increasing ``times`` (seconds), interpolated between them and held
+    constant outside them.
+
+    Attributes:
+        name: the track's name (for messages).
+        times: f64 (k,) seconds.
+        translations: f64 (k,3); rotations: f64 (k,4) unit quaternions; scales: f64 (k,3).
+        interpolation: "step", "linear" or "cubic".
+        teleport_frames: frames at whose start the animated object jumps (no velocity).
+    """
+
+    name: str
+    times: np.ndarray
+    translations: np.ndarray
+    rotations: np.ndarray
+    scales: np.ndarray
+    interpolation: str = "linear"
+    teleport_frames: frozenset[int] = frozenset()
+
+    def __post_init__(self):
+        where = f"track '{self.name}'"
+        if self.interpolation not in INTERPOLATIONS:
+            raise SceneError(f"{where}: interpolation '{self.interpolation}' is not one of {', '.join(INTERPOLATIONS)}")
+        k = self.times.shape[0]
+        if k == 0:
+            raise SceneError(f"{where}: has no keys; give at least one")
+        for name, array, width in (("translate", self.translations, 3), ("rotate", self.rotations, 4), ("scale", self.scales, 3)):
+            if array.shape != (k, width):
+                raise SceneError(f"{where}: '{name}' has shape {array.shape}, expected ({k}, {width})")
+            bad = ~np.isfinite(array).all(axis=1)
+            if bad.any():
+                raise SceneError(f"{where}: key {int(np.flatnonzero(bad)[0])} has a NaN or infinite '{name}' value; fix it")
+        if not np.isfinite(self.times).all():
+            raise SceneError(f"{where}: key {int(np.flatnonzero(~np.isfinite(self.times))[0])} has a NaN time")
+        order = np.diff(self.times)
+        if np.any(order <= 0):
+            i = int(np.flatnonzero(order <= 0)[0]) + 1
+            raise SceneError(
+                f"{where}: key {i} at time {self.times[i]:g} s does not come after key {i - 1} at {self.times[i - 1]:g} s; "
+                "sort the keys by time"
+            )
+        norms = np.linalg.norm(self.rotations, axis=1)
+        if np.any(norms < 1e-9):
+            raise SceneError(f"{where}: key {int(np.argmin(norms))} has a zero quaternion; give a unit rotation (w, x, y, z)")
+        rotations = self.rotations / norms[:, None]
+        # q and -q are the same rotation: flip keys onto one hemisphere so that
+        # interpolation between neighbours takes the shorter arc
+        for j in range(1, k):
+            if np.dot(rotations[j - 1], rotations[j]) < 0:
+                rotations[j] = -rotations[j]
+        object.__setattr__(self, "rotations", rotations)
+        if np.any(self.scales <= 0):
+            raise SceneError(f"{where}: key {int(np.flatnonzero((self.scales <= 0).any(axis=1))[0])} has a non-positive scale")
+
+    @property
+    def is_static(self) -> bool:
+        return self.times.shape[0] == 1 or (
+            np.ptp(self.translations, axis=0).max() == 0
+            and np.ptp(self.rotations, axis=0).max() == 0
+            and np.ptp(self.scales, axis=0).max() == 0
+        )
+
+    def _segment(self, time: float) -> tuple[int, float]:
+        i = int(np.searchsorted(self.times, time, side="right")) - 1
+        i = min(max(i, 0), self.times.shape[0] - 2)
+        span = self.times[i + 1] - self.times[i]
+        u = (time - self.times[i]) / span
+        return i, float(min(max(u, 0.0), 1.0))
+
+    def sample(self, time: float) -> TrackSample:
+        """The pose at ``time`` seconds."""
+        k = self.times.shape[0]
+        if k == 1 or time <= self.times[0]:
+            return TrackSample(self.translations[0], self.rotations[0], self.scales[0])
+        if time >= self.times[-1]:
+            return TrackSample(self.translations[-1], self.rotations[-1], self.scales[-1])
+        i, u = self._segment(time)
+        if self.interpolation == "step":
+            return TrackSample(self.translations[i], self.rotations[i], self.scales[i])
+        if self.interpolation == "linear" or k == 2:
+            lerp = lambda a: a[i] + u * (a[i + 1] - a[i])  # noqa: E731
+            return TrackSample(lerp(self.translations), slerp(self.rotations[i], self.rotations[i + 1], u), lerp(self.scales))
+        return TrackSample(self._catmull_rom(self.translations, i, u), self._spherical_cubic(i, u), self._catmull_rom(self.scales, i, u))
+
+    def _neighbours(self, i: int) -> tuple[int, int]:
+        return max(i - 1, 0), min(i + 2, self.times.shape[0] - 1)
+
+    def _catmull_rom(self, values: np.ndarray, i: int, u: float) -> np.ndarray:
+        """Non-uniform Catmull-Rom (tangents from the neighbouring keys' times)."""
+        a, d = self._neighbours(i)
+        t = self.times
+        p1, p2 = values[i], values[i + 1]
+        m1 = (values[i + 1] - values[a]) / (t[i + 1] - t[a]) * (t[i + 1] - t[i])
+        m2 = (values[d] - values[i]) / (t[d] - t[i]) * (t[i + 1] - t[i])
+        u2, u3 = u * u, u * u * u
+        return (2 * u3 - 3 * u2 + 1) * p1 + (u3 - 2 * u2 + u) * m1 + (-2 * u3 + 3 * u2) * p2 + (u3 - u2) * m2
+
+    def _spherical_cubic(self, i: int, u: float) -> np.ndarray:
+        """Quaternion Catmull-Rom: a spherical Bezier (de Casteljau with slerp) whose inner
+        control points sit a third of the tangent along, tangents taken in log space."""
+        a, d = self._neighbours(i)
+        q = self.rotations
+        q0, q1, q2, q3 = q[a], q[i], q[i + 1], q[d]
+        c1 = quat_multiply(q1, quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2)) / 6.0))
+        c2 = quat_multiply(q2, quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3)) / 6.0))
+        ab, bc, cd = slerp(q1, c1, u), slerp(c1, c2, u), slerp(c2, q2, u)
+        return quat_normalize(slerp(slerp(ab, bc, u), slerp(bc, cd, u), u))
+
+
+def static_track(name: str, translation=(0.0, 0.0, 0.0), rotation=(1.0, 0.0, 0.0, 0.0), scale=(1.0, 1.0, 1.0)) -> Track:
+    return Track(
+        name,
+        np.zeros(1),
+        np.asarray([translation], np.float64),
+        np.asarray([rotation], np.float64),
+        np.asarray([scale], np.float64),
+    )

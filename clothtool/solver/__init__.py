@@ -1,0 +1,1 @@
+"""The NvCloth-style position-based solver: model, state, stages and kernels."""

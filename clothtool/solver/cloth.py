@@ -1,0 +1,155 @@
+"""ClothSolver: one cloth's state, stages and frame loop (NvCloth's position-based solver)."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable
+
+import numpy as np
+
+from clothtool.profile import StageProfiler
+from clothtool.solver.config import SolverConfig
+from clothtool.solver.environment import Environment
+from clothtool.solver.frame import FrameHistory, FrameInertia, Pose
+from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.logstiffness import damping_scale
+from clothtool.solver.model import ClothModel
+from clothtool.solver.pipeline import build_stages
+
+
+@dataclasses.dataclass
+class ClothState:
+    """Time-varying particle data: xyz and inverse mass in w (NvCloth's layout), f32 (n,4).
+
+    prev.w is each particle's own inverse mass; cur.w may be zeroed for an iteration by a
+    motion constraint of radius 0 or scaled by collision, and is restored by integration.
+    """
+
+    cur: np.ndarray
+    prev: np.ndarray
+
+    @classmethod
+    def at_rest(cls, model: ClothModel) -> "ClothState":
+        cur = np.empty((model.particle_count, 4), np.float32)
+        cur[:, :3] = model.rest_pos
+        cur[:, 3] = model.inv_mass
+        return cls(cur, cur.copy())
+
+
+class ClothSolver:
+    """Simulates one cloth frame by frame; stages run per iteration in the seed's order.
+
+    Args:
+        model: the cloth's static data.
+        config: solver settings.
+        environment: gravity and wind.
+        profiler: accumulates time per stage.
+        track: time -> Pose of the cloth's frame (local-space simulation), or None.
+        teleport_frames: frames at whose start the frame jumps without carrying velocity.
+        initial_velocity: (3,) world velocity of the free particles at the start.
+    """
+
+    def __init__(
+        self,
+        model: ClothModel,
+        config: SolverConfig,
+        environment: Environment,
+        profiler: StageProfiler,
+        track: Callable[[float], Pose] | None = None,
+        teleport_frames: frozenset[int] = frozenset(),
+        initial_velocity=(0.0, 0.0, 0.0),
+    ):
+        self.model = model
+        self.config = config
+        self.environment = environment
+        self.profiler = profiler
+        self.track = track
+        self.teleport_frames = teleport_frames
+        self.initial_velocity = np.asarray(initial_velocity, np.float64)
+        self.gravity = np.asarray(environment.gravity, np.float64)
+        material = model.material
+        self.inertia = FrameInertia(
+            material.linear_inertia, material.angular_inertia, material.linear_drag, material.angular_drag
+        )
+        self.state = ClothState.at_rest(model)
+        self.history: FrameHistory | None = None
+        self.prev_h: float | None = None
+        self.stages = build_stages(self)
+
+    @property
+    def stage_names(self) -> list[str]:
+        return [stage.name for stage in self.stages]
+
+    # ------------------------------------------------------------------ frame loop
+    def plan_frame(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+        iterations = max(1, int(frame_dt * self.config.frequency + 0.5))
+        h = frame_dt / iterations
+        plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h)
+        if self.prev_h is None:
+            self._start(plan)
+        elif self.history is not None and frame in self.teleport_frames:
+            self.history.teleport(self.track(time))
+        for stage in self.stages:
+            stage.begin_frame(plan)
+        return plan
+
+    def _start(self, plan: FramePlan) -> None:
+        """Initial previous positions so that the first step is exact for constant
+        acceleration: x_1 = x_0 + v0 h + g h^2 / 2 (Verlet is then exact for free fall)."""
+        h = plan.h
+        gravity, velocity = self.gravity, self.initial_velocity
+        if self.track is not None:
+            pose = self.track(plan.time)
+            # the frame's pose one iteration earlier: the cloth starts moving with its frame
+            self.history = FrameHistory(self.track(plan.time - h))
+            self.history.now = pose
+            gravity = pose.rotation.T @ gravity
+            velocity = pose.rotation.T @ velocity
+        free = self.state.prev[:, 3] > 0
+        offset = (-velocity * h + 0.5 * gravity * h * h).astype(np.float32)
+        self.state.prev[free, :3] = self.state.cur[free, :3] + offset
+        self.prev_h = h
+
+    def iteration(self, plan: FramePlan, index: int) -> Iteration:
+        h = plan.h
+        ratio = h / self.prev_h if index == 0 else 1.0
+        self.prev_h = h
+        scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, h) * ratio
+        terms = None
+        if self.history is not None:
+            target = self.track(plan.time + (index + 1) * h)
+            terms = self.history.advance(target, scale, self.gravity, h, self.inertia, self.config.stiffness_frequency)
+        return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, scale, terms)
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel this cloth's stages use."""
+        for stage in self.stages:
+            stage.warm_up()
+
+    def iterate(self, iteration: Iteration) -> None:
+        for stage in self.stages:
+            with self.profiler.stage(stage.name):
+                stage.run(iteration)
+
+    def step(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+        """Simulate one frame (all its iterations) on its own."""
+        plan = self.plan_frame(frame, time, frame_dt)
+        for index in range(plan.iterations):
+            self.iterate(self.iteration(plan, index))
+        return plan
+
+    # ------------------------------------------------------------------ output
+    def world_points(self) -> np.ndarray:
+        """f32 (n,3) current positions in world space (scene units)."""
+        points = self.state.cur[:, :3]
+        if self.history is None:
+            return np.ascontiguousarray(points)
+        return self.history.now.to_world(points).astype(np.float32)
+
+    def world_velocities(self, h: float) -> np.ndarray:
+        """f32 (n,3) velocities over the last iteration, world space, scene units per second."""
+        if self.history is None:
+            return ((self.state.cur[:, :3] - self.state.prev[:, :3]) / np.float32(h)).astype(np.float32)
+        now = self.history.now.to_world(self.state.cur[:, :3])
+        before = self.history.before.to_world(self.state.prev[:, :3])
+        return ((now - before) / h).astype(np.float32)

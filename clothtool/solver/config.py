@@ -1,0 +1,164 @@
+"""Solver and material settings (frozen dataclasses filled from presets and overrides).
+
+Stiffness-like values in [0,1] follow NvCloth: a stiffness k removes the fraction k of a
+constraint's error per step of the *stiffness frequency*; the solver converts it to its own
+iteration rate in log space (see ``clothtool.solver.logstiffness``). Lengths are in metres
+and converted to scene units by the bake.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Literal
+
+from clothtool.errors import PresetError
+from clothtool.presets import apply_mapping, load_preset
+
+
+@dataclasses.dataclass(frozen=True)
+class PhaseSettings:
+    """How one constraint phase behaves (NvCloth's PhaseConfig).
+
+    stiffness: fraction of the error removed per stiffness-frequency step, in [0,1].
+    stiffness_multiplier: stiffness factor, in [0,1], inside the band between the
+        compression and stretch limits (1 = no band).
+    compression_limit: the band's lower edge as a length ratio <= 1 (1 = no band).
+    stretch_limit: the band's upper edge as a length ratio >= 1 (1 = no band).
+    """
+
+    stiffness: float = 1.0
+    stiffness_multiplier: float = 1.0
+    compression_limit: float = 1.0
+    stretch_limit: float = 1.0
+
+    def check(self, where: str) -> None:
+        for key in ("stiffness", "stiffness_multiplier"):
+            value = getattr(self, key)
+            if not 0.0 <= value <= 1.0:
+                raise PresetError(f"{where}: key '{key}' = {value:g} must lie in [0, 1]")
+        if not 0.0 < self.compression_limit <= 1.0:
+            raise PresetError(f"{where}: key 'compression_limit' = {self.compression_limit:g} must lie in (0, 1]")
+        if self.stretch_limit < 1.0:
+            raise PresetError(f"{where}: key 'stretch_limit' = {self.stretch_limit:g} must be at least 1")
+
+
+def _unit(where: str, key: str, value: float, low: float = 0.0, high: float = 1.0) -> None:
+    if not low <= value <= high:
+        raise PresetError(f"{where}: key '{key}' = {value:g} must lie in [{low:g}, {high:g}]")
+
+
+@dataclasses.dataclass(frozen=True)
+class Material:
+    """A cloth material (presets/material/*.toml). Units: SI (kg, m, s)."""
+
+    areal_density: float = 0.15
+    thickness: float = 0.002
+    vertical: PhaseSettings = PhaseSettings()
+    horizontal: PhaseSettings = PhaseSettings()
+    shearing: PhaseSettings = PhaseSettings(stiffness=0.8)
+    bending: PhaseSettings = PhaseSettings(stiffness=0.3)
+    # physical moduli for stiffness_mode = "xpbd"
+    stretch_modulus: float = 5000.0
+    shear_modulus: float = 500.0
+    bend_modulus: float = 1e-5
+    damping: float = 0.1
+    linear_drag: float = 0.0
+    angular_drag: float = 0.0
+    linear_inertia: float = 1.0
+    angular_inertia: float = 1.0
+    tether_stiffness: float = 1.0
+    tether_scale: float = 1.0
+    drag_coefficient: float = 0.0
+    lift_coefficient: float = 0.0
+    friction: float = 0.5
+    collision_mass_scale: float = 0.0
+    self_collision_distance: float = 0.0
+    self_collision_stiffness: float = 1.0
+
+    def check(self, where: str) -> None:
+        for name in ("vertical", "horizontal", "shearing", "bending"):
+            getattr(self, name).check(f"{where}.{name}")
+        if not self.areal_density > 0:
+            raise PresetError(f"{where}: key 'areal_density' = {self.areal_density:g} must be positive (kg/m^2)")
+        if self.thickness < 0:
+            raise PresetError(f"{where}: key 'thickness' = {self.thickness:g} must not be negative (m)")
+        for key in ("stretch_modulus", "shear_modulus", "bend_modulus"):
+            if getattr(self, key) < 0:
+                raise PresetError(f"{where}: key '{key}' must not be negative")
+        for key in ("damping", "linear_drag", "angular_drag", "linear_inertia", "angular_inertia",
+                    "tether_stiffness", "drag_coefficient", "lift_coefficient", "self_collision_stiffness"):
+            _unit(where, key, getattr(self, key))
+        if self.tether_scale <= 0:
+            raise PresetError(f"{where}: key 'tether_scale' = {self.tether_scale:g} must be positive")
+        if self.friction < 0 or self.collision_mass_scale < 0 or self.self_collision_distance < 0:
+            raise PresetError(f"{where}: friction, collision_mass_scale and self_collision_distance must not be negative")
+
+    def phase(self, label: str) -> PhaseSettings:
+        return getattr(self, label)
+
+
+@dataclasses.dataclass(frozen=True)
+class SolverConfig:
+    """How the solver runs (presets/solver/*.toml).
+
+    frequency: solver iterations per second (iterations per frame = round(frequency / fps)).
+    stiffness_frequency: the rate (Hz) at which stiffness values are specified.
+    stiffness_mode: "nvcloth" (log-space stiffness, as NvCloth) or "xpbd" (compliance from
+        the material's physical moduli; converges with frequency).
+    integrator: "pbd" (NvCloth's position-based solver), "implicit" or "explicit".
+    parallel_threshold: sets with at least this many constraints are solved on all cores.
+    max_speed: a particle faster than this (m/s) marks the bake unstable.
+    sleep_threshold: m/s below which a cloth counts as still (0 disables sleeping).
+    sleep_test_interval: seconds between sleep tests; sleep_after_count: still tests in a
+        row before the cloth sleeps.
+    """
+
+    frequency: float = 300.0
+    stiffness_frequency: float = 100.0
+    stiffness_mode: Literal["nvcloth", "xpbd"] = "nvcloth"
+    integrator: Literal["pbd", "implicit", "explicit"] = "pbd"
+    parallel_threshold: int = 20000
+    max_speed: float = 200.0
+    sleep_threshold: float = 0.0
+    sleep_test_interval: float = 0.1
+    sleep_after_count: int = 10
+    continuous_collision: bool = False
+    self_collision: bool = False
+
+    def check(self, where: str) -> None:
+        if not self.frequency > 0:
+            raise PresetError(f"{where}: key 'frequency' = {self.frequency:g} must be positive (iterations per second)")
+        if not self.stiffness_frequency > 0:
+            raise PresetError(f"{where}: key 'stiffness_frequency' = {self.stiffness_frequency:g} must be positive")
+        if not self.max_speed > 0:
+            raise PresetError(f"{where}: key 'max_speed' must be positive")
+        if self.sleep_threshold < 0 or self.sleep_test_interval <= 0 or self.sleep_after_count < 1:
+            raise PresetError(f"{where}: sleep_threshold >= 0, sleep_test_interval > 0 and sleep_after_count >= 1 are required")
+        if self.parallel_threshold < 1:
+            raise PresetError(f"{where}: key 'parallel_threshold' must be at least 1")
+
+
+def load_material(name_or_table: str | dict, where: str) -> Material:
+    """A material from a preset name, or a table with an optional ``preset`` key plus overrides."""
+    table = {"preset": name_or_table} if isinstance(name_or_table, str) else dict(name_or_table)
+    material = Material()
+    preset = table.pop("preset", None)
+    if preset is not None:
+        mapping, label = load_preset("material", preset)
+        material = apply_mapping(material, mapping, label)
+    material = apply_mapping(material, table, where)
+    material.check(where)
+    return material
+
+
+def load_solver(name_or_table: str | dict, where: str) -> SolverConfig:
+    """Solver settings from a preset name, or a table with an optional ``preset`` key plus overrides."""
+    table = {"preset": name_or_table} if isinstance(name_or_table, str) else dict(name_or_table)
+    config = SolverConfig()
+    preset = table.pop("preset", None)
+    if preset is not None:
+        mapping, label = load_preset("solver", preset)
+        config = apply_mapping(config, mapping, label)
+    config = apply_mapping(config, table, where)
+    config.check(where)
+    return config

@@ -1,0 +1,116 @@
+"""Local-space simulation: Verlet in a moving reference frame, with inertia and drag.
+
+A cloth that follows a track (a cape on a running character) is simulated in the track's
+frame: world = R(t) x + T(t). Let n-1, n, n+1 be the ends of the last two iterations and
+the current one, c_n(x) = P_n(x) - P_{n-1}(x) the frame's motion of a fixed local point over
+the last iteration and c_{n+1} over this one. World-space Verlet with velocity scale s,
+rewritten in local coordinates, is exactly
+
+    x' = x + s R_{n+1}^T R_{n-1} (x - x_prev) + R_{n+1}^T (s c_n(x) - c_{n+1}(x)) + R_{n+1}^T g h^2
+
+We scale the frame terms: inertia i (1 = physical, 0 = particles follow the frame rigidly)
+multiplies the frame's acceleration term, and drag d removes the fraction d of the frame's
+velocity from the particles (NvCloth's semantics), separately for the linear part (the
+translation) and the angular part (the rotation):
+
+    x' = x + s Q (x - x_prev) + K x + b
+    Q = i_a R_{n+1}^T R_{n-1} + (1 - i_a) I
+    K = R_{n+1}^T [ i_a (s D_n - D_{n+1}) - d_a D_{n+1} ]          D_n = R_n - R_{n-1}
+    b = R_{n+1}^T [ i_l (s dT_n - dT_{n+1}) - d_l dT_{n+1} + g h^2 ] dT_n = T_n - T_{n-1}
+
+With i = 1 and d = 0 this is world-space Verlet to rounding; a teleport resets the pose
+history so the jump carries no velocity. Drag values are per stiffness-frequency step and
+converted in log space like damping.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from clothtool.solver.logstiffness import damping_scale
+
+IDENTITY = np.eye(3)
+
+
+@dataclasses.dataclass
+class Pose:
+    rotation: np.ndarray  # (3,3) float64, local -> world
+    translation: np.ndarray  # (3,) float64
+
+    @classmethod
+    def identity(cls) -> "Pose":
+        return cls(IDENTITY.copy(), np.zeros(3))
+
+    def to_world(self, points: np.ndarray) -> np.ndarray:
+        return points @ self.rotation.T + self.translation
+
+    def to_local(self, points: np.ndarray) -> np.ndarray:
+        return (points - self.translation) @ self.rotation
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameInertia:
+    linear_inertia: float = 1.0
+    angular_inertia: float = 1.0
+    linear_drag: float = 0.0
+    angular_drag: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class IterationTerms:
+    """Everything the integrate and wind kernels need from the frame for one iteration."""
+
+    m_cur: np.ndarray  # f32 (3,3)
+    m_prev: np.ndarray  # f32 (3,3)
+    bias: np.ndarray  # f32 (3,)
+    motion_matrix: np.ndarray  # f32 (3,3): frame displacement of local point x is M x + o
+    motion_offset: np.ndarray  # f32 (3,)
+    to_local: np.ndarray  # f64 (3,3): R_{n+1}^T, rotates world vectors into the frame
+
+
+class FrameHistory:
+    """The poses at the ends of the last two iterations of one cloth's frame."""
+
+    def __init__(self, pose: Pose):
+        self.before = pose  # P_{n-1}
+        self.now = pose  # P_n
+
+    def teleport(self, pose: Pose) -> None:
+        """Jump to ``pose`` without the jump turning into velocity."""
+        self.before = pose
+        self.now = pose
+
+    def advance(
+        self, target: Pose, scale: float, gravity: np.ndarray, h: float, inertia: FrameInertia, stiffness_frequency: float
+    ) -> IterationTerms:
+        """Terms for the iteration that ends at ``target``; then shift the history."""
+        r_prev, r_now, r_next = self.before.rotation, self.now.rotation, target.rotation
+        t_prev, t_now, t_next = self.before.translation, self.now.translation, target.translation
+        inv = r_next.T
+        d_lin = 1.0 - damping_scale(inertia.linear_drag, stiffness_frequency, h)
+        d_ang = 1.0 - damping_scale(inertia.angular_drag, stiffness_frequency, h)
+        i_lin, i_ang = inertia.linear_inertia, inertia.angular_inertia
+        q = i_ang * (inv @ r_prev) + (1.0 - i_ang) * IDENTITY
+        d_n, d_n1 = r_now - r_prev, r_next - r_now
+        dt_n, dt_n1 = t_now - t_prev, t_next - t_now
+        k = inv @ (i_ang * (scale * d_n - d_n1) - d_ang * d_n1)
+        b = inv @ (i_lin * (scale * dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)
+        terms = IterationTerms(
+            m_cur=(scale * q + k).astype(np.float32),
+            m_prev=(-scale * q).astype(np.float32),
+            bias=b.astype(np.float32),
+            motion_matrix=(inv @ d_n1).astype(np.float32),
+            motion_offset=(inv @ dt_n1).astype(np.float32),
+            to_local=inv,
+        )
+        self.before, self.now = self.now, target
+        return terms
+
+    @property
+    def moving(self) -> bool:
+        return not (
+            np.array_equal(self.before.rotation, self.now.rotation)
+            and np.array_equal(self.before.translation, self.now.translation)
+        )

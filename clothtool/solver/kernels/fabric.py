@@ -1,0 +1,73 @@
+"""Fabric phases, set by set: NvCloth's edge constraints ("solveFabric").
+
+For each constraint (a, b) with rest length r, h = pb - pa and
+
+    er = 1 - r / sqrt(eps + |h|^2)              (0 when r <= eps)
+    er -= m * max(c, min(er, s))                (only when the multiplier m is not neutral)
+    ex = er * k / (eps + wa + wb)
+    pa += h * ex * wa ;  pb -= h * ex * wb
+
+where k, m are the phase's per-iteration stiffness and multiplier (log-space converted),
+c = 1 - 1/compression_limit and s = 1 - 1/stretch_limit, and k is further scaled by the
+constraint's painted stiffness. A set shares no movable particle, so its constraints are
+independent: the parallel kernel runs each set's loop on all cores and gives the same bits
+as the serial one, whatever the thread count.
+"""
+
+from __future__ import annotations
+
+import types
+
+import numba
+import numpy as np
+
+from clothtool._jit import kernel
+
+FLT_EPSILON = np.float32(1.1920929e-07)
+
+
+def _solve_phases(indices, rest, constraint_stiffness, set_offsets, phase_set_offsets, phase_params, cur):
+    """phase_params (p,4): per phase (stiffness, multiplier, compression term, stretch term)."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    for p in range(phase_params.shape[0]):
+        k = phase_params[p, 0]
+        m = phase_params[p, 1]
+        lo = phase_params[p, 2]
+        hi = phase_params[p, 3]
+        use_multiplier = m != zero
+        for s in range(phase_set_offsets[p], phase_set_offsets[p + 1]):
+            for c in numba.prange(set_offsets[s], set_offsets[s + 1]):
+                a = indices[c, 0]
+                b = indices[c, 1]
+                hx = cur[b, 0] - cur[a, 0]
+                hy = cur[b, 1] - cur[a, 1]
+                hz = cur[b, 2] - cur[a, 2]
+                wa = cur[a, 3]
+                wb = cur[b, 3]
+                e2 = FLT_EPSILON + hx * hx + hy * hy + hz * hz
+                r = rest[c]
+                er = one - r / np.sqrt(e2) if r > FLT_EPSILON else zero
+                if use_multiplier:
+                    er -= m * max(lo, min(er, hi))
+                ex = er * k * constraint_stiffness[c] / (FLT_EPSILON + wa + wb)
+                fa = ex * wa
+                fb = ex * wb
+                cur[a, 0] += hx * fa
+                cur[a, 1] += hy * fa
+                cur[a, 2] += hz * fa
+                cur[b, 0] -= hx * fb
+                cur[b, 1] -= hy * fb
+                cur[b, 2] -= hz * fb
+
+
+def _variant(func, suffix: str):
+    """A copy of ``func`` under another name, so the serial and parallel compilations of the
+    same source keep separate numba cache entries."""
+    copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
+    copy.__qualname__ = func.__qualname__ + suffix
+    return copy
+
+
+solve_phases = kernel(_variant(_solve_phases, "_serial"))
+solve_phases_parallel = kernel(parallel=True)(_variant(_solve_phases, "_parallel"))

@@ -1,0 +1,64 @@
+"""Per-frame measurements: constraint strain, particle speeds, kinetic energy, finiteness."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from clothtool._jit import kernel
+
+
+@kernel
+def constraint_strain(indices, rest, cur, strain):
+    """strain[c] = |p_b - p_a| / rest - 1 (0 for zero rest length)."""
+    for c in range(indices.shape[0]):
+        a = indices[c, 0]
+        b = indices[c, 1]
+        dx = cur[b, 0] - cur[a, 0]
+        dy = cur[b, 1] - cur[a, 1]
+        dz = cur[b, 2] - cur[a, 2]
+        length = np.sqrt(dx * dx + dy * dy + dz * dz)
+        r = rest[c]
+        strain[c] = length / r - np.float32(1.0) if r > 0 else np.float32(0.0)
+
+
+@kernel
+def motion_summary(cur, prev, masses, inv_dt):
+    """Over all particles: (max speed, kinetic energy, index of the fastest particle,
+    index of the first non-finite particle or -1). Speeds from (cur - prev) / dt; float64 sums."""
+    max_speed_sqr = 0.0
+    fastest = 0
+    energy = 0.0
+    bad = -1
+    for i in range(cur.shape[0]):
+        vx = np.float64(cur[i, 0] - prev[i, 0]) * inv_dt
+        vy = np.float64(cur[i, 1] - prev[i, 1]) * inv_dt
+        vz = np.float64(cur[i, 2] - prev[i, 2]) * inv_dt
+        speed_sqr = vx * vx + vy * vy + vz * vz
+        if not np.isfinite(speed_sqr) or not np.isfinite(cur[i, 0] + cur[i, 1] + cur[i, 2]):
+            if bad < 0:
+                bad = i
+            continue
+        if speed_sqr > max_speed_sqr:
+            max_speed_sqr = speed_sqr
+            fastest = i
+        energy += 0.5 * masses[i] * speed_sqr
+    return np.sqrt(max_speed_sqr), energy, fastest, bad
+
+
+@kernel
+def tether_stretch(anchors, lengths, cur):
+    """Largest tether length ratio |p - anchor| / length - 1 over active tethers (0 if none)."""
+    n = cur.shape[0]
+    worst = 0.0
+    for t in range(anchors.shape[0]):
+        i = t % n
+        a = anchors[t]
+        if a == i or lengths[t] <= 0:
+            continue
+        dx = np.float64(cur[a, 0] - cur[i, 0])
+        dy = np.float64(cur[a, 1] - cur[i, 1])
+        dz = np.float64(cur[a, 2] - cur[i, 2])
+        ratio = np.sqrt(dx * dx + dy * dy + dz * dz) / lengths[t] - 1.0
+        if ratio > worst:
+            worst = ratio
+    return worst

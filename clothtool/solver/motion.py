@@ -1,0 +1,29 @@
+"""Stage: motion constraints (max distance from the rest pose in the cloth's frame)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.kernels.constraints import constrain_motion
+from clothtool.solver.logstiffness import iteration_stiffness
+from clothtool.solver.stage import Stage
+
+
+class MotionStage(Stage):
+    name = "motion"
+
+    def begin_frame(self, plan: FramePlan) -> None:
+        motion = self.solver.model.motion
+        self.scale = np.float32(motion.scale)
+        self.bias = np.float32(motion.bias)
+        self.stiffness = iteration_stiffness(motion.stiffness, self.solver.config.stiffness_frequency, plan.h)
+
+    def warm_up(self) -> None:
+        model = self.solver.model
+        one = np.float32(1.0)
+        constrain_motion(model.rest_pos[:0], model.max_distance[:0], one, one, one, self.solver.state.cur[:0])
+
+    def run(self, iteration: Iteration) -> None:
+        model = self.solver.model
+        constrain_motion(model.rest_pos, model.max_distance, self.scale, self.bias, self.stiffness, self.solver.state.cur)

@@ -1,0 +1,31 @@
+"""Stage: tether constraints (long-range max-distance constraints to pinned anchors)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.kernels.constraints import constrain_tethers
+from clothtool.solver.logstiffness import iteration_stiffness
+from clothtool.solver.stage import Stage
+
+
+class TetherStage(Stage):
+    name = "tethers"
+
+    def begin_frame(self, plan: FramePlan) -> None:
+        model = self.solver.model
+        material = model.material
+        k = iteration_stiffness(material.tether_stiffness, self.solver.config.stiffness_frequency, plan.h)
+        # NvCloth: stiffness * numParticles / numTethers, so k slots average rather than add
+        self.stiffness = np.float32(k * model.particle_count / model.tether_anchor.shape[0])
+        self.scale = np.float32(material.tether_scale)
+
+    def warm_up(self) -> None:
+        model = self.solver.model
+        one = np.float32(1.0)
+        constrain_tethers(model.tether_anchor[:0], model.tether_rest_length[:0], one, one, self.solver.state.cur[:0])
+
+    def run(self, iteration: Iteration) -> None:
+        model = self.solver.model
+        constrain_tethers(model.tether_anchor, model.tether_rest_length, self.scale, self.stiffness, self.solver.state.cur)
