@@ -22,8 +22,8 @@ class ClothMesh:
         vertex_attrs: name -> f32 (n,) painted per-vertex values (pin weights, max distance,
             stiffness, vertex colour channels ``color_r``/``color_g``/``color_b``).
         source: the file name used in error messages.
-        meters_per_unit: the file's unit in metres when the file says so (USD), else None.
-        up_axis: "Y" or "Z" when the file says so (USD), else None.
+        meters_per_unit: the file's unit in metres when the file says so (USD, glTF), else None.
+        up_axis: "Y" or "Z" when the file says so (USD, glTF), else None.
     """
 
     vertex_pos: np.ndarray

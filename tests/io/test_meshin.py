@@ -14,8 +14,7 @@ import numpy as np
 import pytest
 
 from clothtool.errors import FormatError, MeshError
-from clothtool.io import meshin
-from clothtool.io.meshin import SUPPORTED_SUFFIXES, read_mesh
+from clothtool.io.meshin import SUPPORTED_SUFFIXES, obj, read_mesh
 
 # The garment every format test writes: a unit quad and a triangle sharing its edge 1-2.
 POS = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0]], np.float64)
@@ -167,7 +166,7 @@ def test_obj_that_needs_the_line_parser_reads_the_same(sub):
     plain.write_text(OBJ_TEXT)
     lines = [f"  {line}  # note" if line.startswith(("v", "f")) else line for line in OBJ_TEXT.splitlines()]
     awkward.write_bytes(b"\xef\xbb\xbf" + "\n".join(lines).encode())
-    assert meshin._parse_obj_fast(awkward.read_bytes()[3:]) is None
+    assert obj._parse_obj_fast(awkward.read_bytes()[3:]) is None
     want, got = read_mesh(plain), read_mesh(awkward)
     check_quad_tri(got)
     np.testing.assert_array_equal(got.face_vertex_uv, want.face_vertex_uv)
@@ -232,9 +231,9 @@ def test_obj_out_of_range_indices_are_returned_raw(sub):
 )
 def test_obj_fast_parser_matches_the_line_parser(text):
     data = text.encode()
-    fast = meshin._parse_obj_fast(data)
+    fast = obj._parse_obj_fast(data)
     assert fast is not None, "well-formed files must take the vectorised path"
-    slow = meshin._parse_obj_lines(data, "x.obj")
+    slow = obj._parse_obj_lines(data, "x.obj")
     for got, want in zip(fast, slow):
         if want is None:
             assert got is None
@@ -546,6 +545,18 @@ def test_gltf_with_a_missing_buffer_file(sub):
     with pytest.raises(MeshError) as excinfo:
         read_mesh(sub / "model.gltf")
     one_line_error(excinfo, f"cannot read {missing}", "check that it exists")
+
+
+@pytest.mark.parametrize("suffix", [".glb", ".gltf"])
+def test_gltf_is_metres_and_y_up_by_specification(sub, suffix):
+    if suffix == ".glb":
+        path = trimesh_glb(sub)
+    else:
+        path = sub / "blender.gltf"
+        path.write_text(json.dumps(gltf_document([{"mesh": 0}])))
+    mesh = read_mesh(path)
+    assert mesh.meters_per_unit == 1.0
+    assert mesh.up_axis == "Y"
 
 
 def test_glb_without_meshes_has_no_faces(sub):
