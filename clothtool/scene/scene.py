@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from clothtool.scene.trackload import load_track
 from clothtool.scene.tracks import Track, euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver.config import Material, SolverConfig, load_material, load_solver
 from clothtool.solver.model import BackstopSettings, MotionSettings, Placement
+
+if TYPE_CHECKING:  # pragma: no cover
+    from clothtool.scene.colliders import SceneColliders
 
 FORMAT_VERSION = 1
 TOP_LEVEL_KEYS = ("version", "scene", "solver", "output", "wind", "track", "cloth", "collider")
@@ -85,7 +89,7 @@ class Scene:
     wind: WindSettings | None
     tracks: dict[str, Track]
     output: OutputSettings
-    colliders: tuple = ()
+    colliders: "SceneColliders | None" = None
 
     @property
     def frame_count(self) -> int:
@@ -328,9 +332,9 @@ def load_scene(
         if not cloth.name.replace("_", "a").isalnum() or cloth.name[0].isdigit():
             ctx.fail(f"cloth.{cloth.name}", "cloth names must be letters, digits and underscores, not starting with a digit")
     wind = _wind(ctx, tables["wind"], tracks) if "wind" in tables else None
-    colliders = ()
+    colliders = None
     if "collider" in tables:
         from clothtool.scene.colliders import load_colliders
 
-        colliders = load_colliders(ctx, tables["collider"], tracks)
+        colliders = load_colliders(ctx, tables["collider"], tracks, fps)
     return Scene(name, path, fps, start, end, mpu, up_axis, gravity, solver, cloths, wind, tracks, output, colliders)

@@ -1,0 +1,323 @@
+"""Colliders from scene tables, evaluated into world-space ColliderArrays at any time.
+
+Each ``[collider.NAME]`` has a ``kind`` (sphere, capsule, plane, convex, mesh), geometry in
+its own local coordinates, an optional ``track`` that moves it (local -> world, with
+scale), a ``thickness`` (margin, scene units) and a ``friction`` coefficient. Mesh colliders
+come from any mesh file ``clothtool cook`` reads and may deform with per-frame points from an
+NPZ file (arrays ``frame`` (k,) and ``points`` (k, m, 3)).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+from clothtool.errors import ClothtoolError, SceneError
+from clothtool.io.cache import ColliderInfo
+from clothtool.scene.tracks import Track
+from clothtool.solver.colliders import ColliderArrays
+
+KINDS = ("sphere", "capsule", "plane", "convex", "mesh")
+COMMON_KEYS = ("kind", "track", "thickness", "friction")
+KIND_KEYS = {
+    "sphere": ("center", "radius"),
+    "capsule": ("start", "end", "radius", "radii"),
+    "plane": ("point", "normal"),
+    "convex": ("planes", "box"),
+    "mesh": ("mesh", "deform"),
+}
+DEFAULT_FRICTION = 0.5
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Collider:
+    """One collider in its local frame (see module docstring)."""
+
+    name: str
+    kind: str
+    track: Track | None
+    thickness: float
+    friction: float
+    centers: np.ndarray  # (s,3) sphere centres (sphere: 1, capsule: 2)
+    radii: np.ndarray  # (s,)
+    planes: np.ndarray  # (p,4) n, d with solid side n.x < d
+    mesh_points: np.ndarray | None = None  # (m,3)
+    mesh_triangles: np.ndarray | None = None  # (t,3)
+    mesh_faces: tuple[np.ndarray, np.ndarray] | None = None  # render topology (counts, indices)
+    deform_frames: np.ndarray | None = None  # (k,) frame numbers of the deformation samples
+    deform_points: np.ndarray | None = None  # (k,m,3)
+    fps: float = 24.0
+
+    def matrix(self, time: float) -> np.ndarray:
+        """4x4 local -> world (column-vector convention)."""
+        return np.eye(4) if self.track is None else self.track.sample(time).matrix()
+
+    def is_animated(self) -> bool:
+        return (self.track is not None and not self.track.is_static) or self.deform_points is not None
+
+    def local_points(self, time: float) -> np.ndarray:
+        if self.deform_points is None:
+            return self.mesh_points
+        frame = time * self.fps
+        frames = self.deform_frames
+        i = int(np.clip(np.searchsorted(frames, frame, side="right") - 1, 0, frames.shape[0] - 1))
+        if i == frames.shape[0] - 1 or frame <= frames[0]:
+            return self.deform_points[0 if frame <= frames[0] else i]
+        u = (frame - frames[i]) / (frames[i + 1] - frames[i])
+        return self.deform_points[i] + u * (self.deform_points[i + 1] - self.deform_points[i])
+
+    def info(self) -> ColliderInfo:
+        if self.kind == "sphere":
+            params = {"radius": float(self.radii[0])}
+        elif self.kind == "capsule":
+            params = {"radius0": float(self.radii[0]), "radius1": float(self.radii[1]),
+                      "start": self.centers[0].tolist(), "end": self.centers[1].tolist()}
+        elif self.kind in ("plane", "convex"):
+            params = {"planes": self.planes.tolist()}
+        else:
+            params = {}
+        counts, indices = self.mesh_faces if self.mesh_faces is not None else (None, None)
+        return ColliderInfo(self.name, self.kind, params, counts, indices,
+                            None if self.mesh_points is None else self.mesh_points.astype(np.float32))
+
+
+class SceneColliders:
+    """All colliders of a scene; ``at(time)`` gives world ColliderArrays (memoised per time)."""
+
+    def __init__(self, colliders: tuple[Collider, ...]):
+        self.colliders = colliders
+        self._cache: dict[float, ColliderArrays] = {}
+
+    def __len__(self) -> int:
+        return len(self.colliders)
+
+    def infos(self) -> tuple[ColliderInfo, ...]:
+        return tuple(c.info() for c in self.colliders)
+
+    def xforms(self, time: float) -> tuple[np.ndarray, ...]:
+        """Per collider, the 4x4 world matrix in the row-vector convention caches use."""
+        return tuple(c.matrix(time).T.copy() for c in self.colliders)
+
+    def deformed_points(self, time: float) -> tuple[np.ndarray | None, ...]:
+        return tuple(
+            c.local_points(time).astype(np.float32) if c.deform_points is not None else None for c in self.colliders
+        )
+
+    def at(self, time: float) -> ColliderArrays:
+        if time not in self._cache:
+            if len(self._cache) > 4:  # a bake asks for the start and end of each frame
+                self._cache.clear()
+            self._cache[time] = self._evaluate(time)
+        return self._cache[time]
+
+    def _evaluate(self, time: float) -> ColliderArrays:
+        centers, radii, s_margin, s_friction, s_collider = [], [], [], [], []
+        capsules, c_margin, c_friction = [], [], []
+        planes, offsets, v_margin, v_friction = [], [0], [], []
+        points, triangles, tri_mesh, m_margin, m_friction = [], [], [], [], []
+        point_count = 0
+        for collider in self.colliders:
+            m = collider.matrix(time)
+            linear, translation = m[:3, :3], m[:3, 3]
+            scale = float(np.cbrt(abs(np.linalg.det(linear))))
+            if collider.kind in ("sphere", "capsule"):
+                first = len(centers)
+                for c, r in zip(collider.centers, collider.radii):
+                    centers.append(linear @ c + translation)
+                    radii.append(r * scale)
+                    s_margin.append(collider.thickness)
+                    s_friction.append(collider.friction)
+                    s_collider.append(collider.kind == "sphere")
+                if collider.kind == "capsule":
+                    capsules.append((first, first + 1))
+                    c_margin.append(collider.thickness)
+                    c_friction.append(collider.friction)
+            elif collider.kind in ("plane", "convex"):
+                normal_matrix = np.linalg.inv(linear).T
+                for plane in collider.planes:
+                    n = normal_matrix @ plane[:3]
+                    length = np.linalg.norm(n)
+                    point_on = linear @ (plane[:3] * plane[3]) + translation  # local n.x = d at x = d n
+                    n = n / length
+                    planes.append((*n, float(n @ point_on)))
+                offsets.append(len(planes))
+                v_margin.append(collider.thickness)
+                v_friction.append(collider.friction)
+            else:
+                local = collider.local_points(time)
+                points.append(local @ linear.T + translation)
+                triangles.append(collider.mesh_triangles + point_count)
+                tri_mesh.append(np.full(collider.mesh_triangles.shape[0], len(m_margin), np.int32))
+                point_count += local.shape[0]
+                m_margin.append(collider.thickness)
+                m_friction.append(collider.friction)
+        f32 = lambda values, shape: np.asarray(values, np.float32).reshape(shape)  # noqa: E731
+        return ColliderArrays(
+            sphere_center=f32(centers, (-1, 3)),
+            sphere_radius=f32(radii, -1),
+            sphere_margin=f32(s_margin, -1),
+            sphere_friction=f32(s_friction, -1),
+            sphere_is_collider=np.asarray(s_collider, bool),
+            capsule_spheres=np.asarray(capsules, np.int32).reshape(-1, 2),
+            capsule_margin=f32(c_margin, -1),
+            capsule_friction=f32(c_friction, -1),
+            plane=f32(planes, (-1, 4)),
+            convex_plane_offsets=np.asarray(offsets, np.int32),
+            convex_margin=f32(v_margin, -1),
+            convex_friction=f32(v_friction, -1),
+            mesh_points=f32(np.concatenate(points) if points else [], (-1, 3)),
+            mesh_triangles=np.concatenate(triangles).astype(np.int32) if triangles else np.zeros((0, 3), np.int32),
+            triangle_mesh=np.concatenate(tri_mesh) if tri_mesh else np.zeros(0, np.int32),
+            mesh_margin=f32(m_margin, -1),
+            mesh_friction=f32(m_friction, -1),
+        )
+
+
+# ------------------------------------------------------------------------ loading
+def _box_planes(ctx, table: dict, where: str) -> np.ndarray:
+    box = ctx.check_keys(table, ("center", "size"), f"{where}.box")
+    center = ctx.vector(box, "center", f"{where}.box", default=[0.0, 0.0, 0.0])
+    size = ctx.vector(box, "size", f"{where}.box")
+    if np.any(size <= 0):
+        ctx.fail(f"{where}.box", f"key 'size' = {size.tolist()} must be positive in every axis")
+    planes = []
+    for axis in range(3):
+        for sign in (1.0, -1.0):
+            n = np.zeros(3)
+            n[axis] = sign
+            planes.append((*n, float(n @ center + size[axis] / 2)))
+    # the box's solid is inside all six planes: n.x < d for each outward normal n
+    return np.asarray(planes)
+
+
+def _has_interior(planes: np.ndarray) -> bool:
+    """Whether the intersection of the solid sides n.x < d has an interior (a small LP)."""
+    from scipy.optimize import linprog
+
+    # maximise t subject to n_i . x + t <= d_i, |x| bounded
+    a = np.hstack([planes[:, :3], np.ones((planes.shape[0], 1))])
+    result = linprog(
+        c=[0, 0, 0, -1], A_ub=a, b_ub=planes[:, 3], bounds=[(-1e6, 1e6)] * 3 + [(None, 1.0)], method="highs"
+    )
+    return bool(result.status == 0 and -result.fun > 1e-9)
+
+
+def _planes(ctx, table: dict, where: str) -> np.ndarray:
+    if ("planes" in table) == ("box" in table):
+        ctx.fail(where, "a convex needs either 'planes' = [[nx, ny, nz, d], ...] or 'box' = { center, size }")
+    if "box" in table:
+        return _box_planes(ctx, table["box"], where)
+    raw = table["planes"]
+    planes = np.asarray(raw, np.float64) if isinstance(raw, list) else np.zeros(0)
+    if planes.ndim != 2 or planes.shape[1] != 4 or planes.shape[0] == 0 or not np.isfinite(planes).all():
+        ctx.fail(where, "key 'planes' must be a list of [nx, ny, nz, d] (solid side n.x < d)")
+    lengths = np.linalg.norm(planes[:, :3], axis=1)
+    if np.any(lengths < 1e-9):
+        ctx.fail(where, f"plane {int(np.argmin(lengths))} has a zero normal")
+    planes = planes / lengths[:, None]
+    if not _has_interior(planes):
+        ctx.fail(where, "the planes enclose no volume (the convex has no interior); check the normals point outwards")
+    return planes
+
+
+def _mesh(ctx, table: dict, where: str):
+    from clothtool.io.meshin import read_mesh
+    from clothtool.mesh import topology
+
+    path = ctx.base / str(table["mesh"])
+    try:
+        mesh = read_mesh(path)
+    except ClothtoolError as exc:
+        ctx.fail(where, f"mesh: {exc}")
+    triangles, _ = topology.triangulate(mesh.face_vertex_counts, mesh.face_vertex_indices)
+    if triangles.size and (triangles.min() < 0 or triangles.max() >= mesh.vertex_count):
+        ctx.fail(where, f"mesh {path.name} has faces referencing missing vertices; re-export it")
+    if not np.isfinite(mesh.vertex_pos).all():
+        ctx.fail(where, f"mesh {path.name} has NaN coordinates; fix it in your DCC")
+    frames = points = None
+    if "deform" in table:
+        deform = ctx.base / str(table["deform"])
+        try:
+            with np.load(deform) as data:
+                frames = np.asarray(data["frame"], np.float64)
+                points = np.asarray(data["points"], np.float64)
+        except (OSError, KeyError, ValueError) as exc:
+            ctx.fail(where, f"deform file {deform.name}: needs arrays 'frame' (k,) and 'points' (k, m, 3) ({exc})")
+        if points.shape != (frames.shape[0], mesh.vertex_count, 3):
+            ctx.fail(where, f"deform file {deform.name}: 'points' has shape {points.shape}, expected ({frames.shape[0]}, {mesh.vertex_count}, 3)")
+        if np.any(np.diff(frames) <= 0) or not np.isfinite(points).all():
+            ctx.fail(where, f"deform file {deform.name}: frames must increase and points be finite")
+    return (
+        mesh.vertex_pos.astype(np.float64),
+        triangles.astype(np.int32),
+        (mesh.face_vertex_counts.astype(np.int32), mesh.face_vertex_indices.astype(np.int32)),
+        frames,
+        points,
+    )
+
+
+def _collider(ctx, name: str, table: dict, tracks: dict[str, Track], fps: float) -> Collider:
+    where = f"collider.{name}"
+    if not isinstance(table, dict):
+        ctx.fail(where, "must be a table with a 'kind'")
+    kind = table.get("kind")
+    if kind not in KINDS:
+        ctx.fail(where, f"key 'kind' = {kind!r}; use one of {', '.join(KINDS)}")
+    ctx.check_keys(table, COMMON_KEYS + KIND_KEYS[kind], where)
+    track = None
+    if "track" in table:
+        if table["track"] not in tracks:
+            ctx.fail(where, f"key 'track' names '{table['track']}', but the scene has no [track.{table['track']}]")
+        track = tracks[table["track"]]
+    thickness = ctx.number(table, "thickness", where, default=0.0)
+    friction = ctx.number(table, "friction", where, default=DEFAULT_FRICTION)
+    if thickness < 0 or friction < 0:
+        ctx.fail(where, "keys 'thickness' and 'friction' must not be negative")
+    none3, none1, no_planes = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))
+    common = dict(name=name, kind=kind, track=track, thickness=thickness, friction=friction, fps=fps)
+    if kind == "sphere":
+        radius = ctx.number(table, "radius", where)
+        if not radius > 0:
+            ctx.fail(where, f"key 'radius' = {radius:g} must be positive")
+        center = ctx.vector(table, "center", where, default=[0.0, 0.0, 0.0])
+        return Collider(centers=center[None], radii=np.array([radius]), planes=no_planes, **common)
+    if kind == "capsule":
+        if ("radius" in table) == ("radii" in table):
+            ctx.fail(where, "give 'radius' (both ends) or 'radii' = [r0, r1] (a tapered capsule)")
+        radii = (
+            np.full(2, ctx.number(table, "radius", where)) if "radius" in table else ctx.vector(table, "radii", where, size=2)
+        )
+        if np.any(radii <= 0):
+            ctx.fail(where, f"capsule radii {radii.tolist()} must be positive")
+        start, end = ctx.vector(table, "start", where), ctx.vector(table, "end", where)
+        length = np.linalg.norm(end - start)
+        if length <= abs(radii[1] - radii[0]) or length < 1e-9:
+            ctx.fail(where, "degenerate capsule: its ends coincide (or one sphere swallows the other); use a sphere")
+        return Collider(centers=np.stack([start, end]), radii=radii, planes=no_planes, **common)
+    if kind == "plane":
+        normal = ctx.vector(table, "normal", where, default=[0.0, 1.0, 0.0])
+        if np.linalg.norm(normal) < 1e-9:
+            ctx.fail(where, "key 'normal' must not be zero")
+        normal = normal / np.linalg.norm(normal)
+        point = ctx.vector(table, "point", where, default=[0.0, 0.0, 0.0])
+        return Collider(centers=none3, radii=none1, planes=np.array([[*normal, normal @ point]]), **common)
+    if kind == "convex":
+        return Collider(centers=none3, radii=none1, planes=_planes(ctx, table, where), **common)
+    if "mesh" not in table:
+        ctx.fail(where, "a mesh collider needs 'mesh' = a mesh file")
+    points, triangles, faces, frames, deform = _mesh(ctx, table, where)
+    return Collider(centers=none3, radii=none1, planes=no_planes, mesh_points=points, mesh_triangles=triangles,
+                    mesh_faces=faces, deform_frames=frames, deform_points=deform, **common)
+
+
+def load_colliders(ctx, tables: dict, tracks: dict[str, Track], fps: float) -> SceneColliders:
+    if not isinstance(tables, dict):
+        raise SceneError(f"{ctx.path}: [collider] must hold tables like [collider.NAME]")
+    return SceneColliders(tuple(_collider(ctx, name, table, tracks, fps) for name, table in tables.items()))
+
+
+def collider_paths(tables: dict, base: Path) -> list[Path]:
+    """Files the colliders read (for error messages and provenance)."""
+    return [base / str(t[k]) for t in tables.values() if isinstance(t, dict) for k in ("mesh", "deform") if k in t]
