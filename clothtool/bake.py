@@ -201,8 +201,10 @@ def _check_stable(scene: Scene, frame: int, solver: ClothSolver, stats: dict) ->
         )
 
 
-def bake(scene: Scene, output: str | Path, options: BakeOptions = BakeOptions()) -> BakeStats:
-    """Simulate ``scene`` from its start to its end frame into the cache ``output``.
+def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStats:
+    """Simulate ``scene`` from its start to its end frame into the cache ``output`` (a path
+    whose suffix picks the format, "null", or a CacheWriter object such as a
+    MemoryCacheWriter).
 
     The start frame is the rest pose; each later frame is one frame time of simulation.
     Returns the stats; raises UnstableError (with ``.stats``) when the bake goes unstable,
@@ -214,7 +216,7 @@ def bake(scene: Scene, output: str | Path, options: BakeOptions = BakeOptions())
     meters = [ClothMeter(solver) for solver in solvers]
     stats = BakeStats(
         scene=scene.name,
-        output=Path(str(output)).name,
+        output=Path(str(getattr(output, "path", output))).name,
         fps=scene.fps,
         start_frame=scene.start_frame,
         end_frame=scene.end_frame,
@@ -257,7 +259,7 @@ def bake(scene: Scene, output: str | Path, options: BakeOptions = BakeOptions())
     )
     total = scene.frame_count
     frame_dt = 1.0 / scene.fps
-    writer = open_cache_writer(output, cache_options)
+    writer = output if hasattr(output, "write_frame") else open_cache_writer(output, cache_options)
     try:
         with writer:
             writer.write_header(header)
@@ -289,7 +291,7 @@ def bake(scene: Scene, output: str | Path, options: BakeOptions = BakeOptions())
     except UnstableError as exc:
         stats.status = "unstable"
         stats.failure = {"frame": stats.per_frame[-1]["frame"] if stats.per_frame else scene.start_frame, "message": str(exc)}
-        partial = partial_path(output)
+        partial = partial_path(writer.path)
         stats.partial_output = partial.name if partial.exists() else None
         _finish(stats, profiler, wall0, cpu0)
         exc.stats = stats

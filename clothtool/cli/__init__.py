@@ -8,6 +8,7 @@ from clothtool import __version__
 from clothtool.cli.bake import bake
 from clothtool.cli.cook import cook
 from clothtool.cli.inspect import inspect
+from clothtool.cli.study import study
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -19,3 +20,4 @@ def main() -> None:
 main.add_command(cook)
 main.add_command(bake)
 main.add_command(inspect)
+main.add_command(study)

@@ -68,19 +68,49 @@ class Collider:
         u = (frame - frames[i]) / (frames[i + 1] - frames[i])
         return self.deform_points[i] + u * (self.deform_points[i + 1] - self.deform_points[i])
 
+    def shape_matrix(self) -> np.ndarray:
+        """4x4 from the cache's canonical shape frame to the collider's local frame: spheres
+        at the origin, capsules along +X centred on the origin, planes with normal +Y through
+        the origin; convexes and meshes keep their own coordinates."""
+        m = np.eye(4)
+        if self.kind == "sphere":
+            m[:3, 3] = self.centers[0]
+        elif self.kind == "capsule":
+            m[:3, :3] = _rotation_from_to(np.array([1.0, 0.0, 0.0]), self.centers[1] - self.centers[0])
+            m[:3, 3] = self.centers.mean(axis=0)
+        elif self.kind == "plane":
+            normal = self.planes[0, :3]
+            m[:3, :3] = _rotation_from_to(np.array([0.0, 1.0, 0.0]), normal)
+            m[:3, 3] = normal * self.planes[0, 3]
+        return m
+
     def info(self) -> ColliderInfo:
         if self.kind == "sphere":
             params = {"radius": float(self.radii[0])}
         elif self.kind == "capsule":
             params = {"radius0": float(self.radii[0]), "radius1": float(self.radii[1]),
-                      "start": self.centers[0].tolist(), "end": self.centers[1].tolist()}
-        elif self.kind in ("plane", "convex"):
-            params = {"planes": self.planes.tolist()}
+                      "length": float(np.linalg.norm(self.centers[1] - self.centers[0]))}
+        elif self.kind == "convex":
+            params = {"planes": self.planes.astype(np.float64)}
         else:
             params = {}
         counts, indices = self.mesh_faces if self.mesh_faces is not None else (None, None)
         return ColliderInfo(self.name, self.kind, params, counts, indices,
                             None if self.mesh_points is None else self.mesh_points.astype(np.float32))
+
+
+def _rotation_from_to(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The smallest rotation taking direction a to direction b."""
+    a = a / np.linalg.norm(a)
+    b = b / np.linalg.norm(b)
+    v = np.cross(a, b)
+    c = float(a @ b)
+    if c < -1.0 + 1e-12:  # opposite: half a turn about any axis perpendicular to a
+        axis = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+        axis /= np.linalg.norm(axis)
+        return 2.0 * np.outer(axis, axis) - np.eye(3)
+    skew = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + skew + skew @ skew / (1.0 + c)
 
 
 class SceneColliders:
@@ -98,7 +128,7 @@ class SceneColliders:
 
     def xforms(self, time: float) -> tuple[np.ndarray, ...]:
         """Per collider, the 4x4 world matrix in the row-vector convention caches use."""
-        return tuple(c.matrix(time).T.copy() for c in self.colliders)
+        return tuple((c.matrix(time) @ c.shape_matrix()).T.copy() for c in self.colliders)
 
     def deformed_points(self, time: float) -> tuple[np.ndarray | None, ...]:
         return tuple(

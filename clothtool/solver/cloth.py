@@ -29,8 +29,8 @@ class ClothState:
     prev: np.ndarray
 
     @classmethod
-    def at_rest(cls, model: ClothModel) -> "ClothState":
-        cur = np.empty((model.particle_count, 4), np.float32)
+    def at_rest(cls, model: ClothModel, dtype=np.float32) -> "ClothState":
+        cur = np.empty((model.particle_count, 4), dtype)
         cur[:, :3] = model.rest_pos
         cur[:, 3] = model.inv_mass
         return cls(cur, cur.copy())
@@ -71,7 +71,7 @@ class ClothSolver:
         self.inertia = FrameInertia(
             material.linear_inertia, material.angular_inertia, material.linear_drag, material.angular_drag
         )
-        self.state = ClothState.at_rest(model)
+        self.state = ClothState.at_rest(model, np.dtype(config.precision))
         self.history: FrameHistory | None = None
         self.prev_h: float | None = None
         self.stages = build_stages(self)
@@ -106,7 +106,7 @@ class ClothSolver:
             gravity = pose.rotation.T @ gravity
             velocity = pose.rotation.T @ velocity
         free = self.state.prev[:, 3] > 0
-        offset = (-velocity * h + 0.5 * gravity * h * h).astype(np.float32)
+        offset = (-velocity * h + 0.5 * gravity * h * h).astype(self.state.cur.dtype)
         self.state.prev[free, :3] = self.state.cur[free, :3] + offset
         self.prev_h = h
 
@@ -140,16 +140,16 @@ class ClothSolver:
 
     # ------------------------------------------------------------------ output
     def world_points(self) -> np.ndarray:
-        """f32 (n,3) current positions in world space (scene units)."""
+        """(n,3) current positions in world space (scene units), in the state's precision."""
         points = self.state.cur[:, :3]
         if self.history is None:
             return np.ascontiguousarray(points)
-        return self.history.now.to_world(points).astype(np.float32)
+        return self.history.now.to_world(points).astype(self.state.cur.dtype)
 
     def world_velocities(self, h: float) -> np.ndarray:
         """f32 (n,3) velocities over the last iteration, world space, scene units per second."""
         if self.history is None:
-            return ((self.state.cur[:, :3] - self.state.prev[:, :3]) / np.float32(h)).astype(np.float32)
+            return ((self.state.cur[:, :3] - self.state.prev[:, :3]) / h).astype(np.float32)
         now = self.history.now.to_world(self.state.cur[:, :3])
         before = self.history.before.to_world(self.state.prev[:, :3])
         return ((now - before) / h).astype(np.float32)

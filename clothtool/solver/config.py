@@ -107,6 +107,7 @@ class SolverConfig:
         the material's physical moduli; converges with frequency).
     integrator: "pbd" (NvCloth's position-based solver), "implicit" or "explicit".
     parallel_threshold: sets with at least this many constraints are solved on all cores.
+    precision: "float32" (production) or "float64" particle state (study references).
     max_speed: a particle faster than this (m/s) marks the bake unstable.
     sleep_threshold: m/s below which a cloth counts as still (0 disables sleeping).
     sleep_test_interval: seconds between sleep tests; sleep_after_count: still tests in a
@@ -117,6 +118,7 @@ class SolverConfig:
     stiffness_frequency: float = 100.0
     stiffness_mode: Literal["nvcloth", "xpbd"] = "nvcloth"
     integrator: Literal["pbd", "implicit", "explicit"] = "pbd"
+    precision: Literal["float32", "float64"] = "float32"
     parallel_threshold: int = 20000
     max_speed: float = 200.0
     sleep_threshold: float = 0.0

@@ -71,3 +71,40 @@ def _variant(func, suffix: str):
 
 solve_phases = kernel(_variant(_solve_phases, "_serial"))
 solve_phases_parallel = kernel(parallel=True)(_variant(_solve_phases, "_parallel"))
+
+
+def _solve_phases_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
+    """XPBD (Macklin et al. 2016) distance constraints, one iteration per substep.
+
+    With the Lagrange multiplier reset every substep, the update of constraint c is
+    dlambda = -C / (wa + wb + alpha_tilde_c), alpha_tilde_c = compliance_c / h^2, i.e. the
+    edge-constraint update above with stiffness 1 and alpha_tilde in the denominator; as h
+    shrinks the solution converges to the elastic material's instead of depending on h.
+    """
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    for s in range(set_offsets.shape[0] - 1):
+        for c in numba.prange(set_offsets[s], set_offsets[s + 1]):
+            a = indices[c, 0]
+            b = indices[c, 1]
+            hx = cur[b, 0] - cur[a, 0]
+            hy = cur[b, 1] - cur[a, 1]
+            hz = cur[b, 2] - cur[a, 2]
+            wa = cur[a, 3]
+            wb = cur[b, 3]
+            e2 = FLT_EPSILON + hx * hx + hy * hy + hz * hz
+            r = rest[c]
+            er = one - r / np.sqrt(e2) if r > FLT_EPSILON else zero
+            ex = er / (FLT_EPSILON + wa + wb + alpha_tilde[c])
+            fa = ex * wa
+            fb = ex * wb
+            cur[a, 0] += hx * fa
+            cur[a, 1] += hy * fa
+            cur[a, 2] += hz * fa
+            cur[b, 0] -= hx * fb
+            cur[b, 1] -= hy * fb
+            cur[b, 2] -= hz * fb
+
+
+solve_xpbd = kernel(_variant(_solve_phases_xpbd, "_serial"))
+solve_xpbd_parallel = kernel(parallel=True)(_variant(_solve_phases_xpbd, "_parallel"))

@@ -1,0 +1,52 @@
+"""``clothtool study``: speed against error over swept settings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from clothtool.cli.bake import parse_frames, progress_bar
+from clothtool.cli.common import emit_json, handle_errors, stderr_is_terminal
+
+
+@click.command()
+@click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--sweep", "sweeps", multiple=True, required=True, metavar="KEY=V1,V2,...",
+              help="Values to try for a scene/preset key; the first sweep is the x variable, others make families.")
+@click.option("--metric", type=click.Choice(["position", "strain", "penetration", "energy"]), default="position",
+              show_default=True, help="Error plotted against time.")
+@click.option("-o", "--output", type=click.Path(file_okay=False, path_type=Path), required=True,
+              help="Directory for table.txt/.csv/.json and plot.png/.svg.")
+@click.option("--repeats", type=click.IntRange(min=1), default=3, show_default=True, help="Bakes per point (median time).")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help="Override a key for every bake.")
+@click.option("--reference", "reference", multiple=True, metavar="KEY=VALUE",
+              help="Override a key for the reference bake only (e.g. solver.stiffness_mode=xpbd).")
+@click.option("--reference-frequency", type=float, help="Reference solver frequency [8x the largest swept].")
+@click.option("--frames", callback=parse_frames, metavar="START:END", help="Frame range for every bake.")
+@click.option("--json", "as_json", is_flag=True, help="Print the table as JSON on stdout.")
+@handle_errors
+def study(scene, sweeps, metric, output, repeats, overrides, reference, reference_frequency, frames, as_json):
+    """Bake SCENE for every swept setting and a converged reference; write a work-precision
+    table and plot.
+
+    \b
+    Example:
+      clothtool study examples/skirt/scene.toml --sweep solver.frequency=60,120,240,480 \\
+          --sweep solver.stiffness_mode=nvcloth,xpbd --reference solver.stiffness_mode=xpbd -o out/study
+    """
+    from clothtool.study import StudyOptions, run_study
+    from clothtool.study.output import format_table, write_study
+    from clothtool.study.sweep import Sweep
+
+    options = StudyOptions(
+        sweeps=tuple(Sweep.parse(s) for s in sweeps), metric=metric, repeats=repeats, overrides=tuple(overrides),
+        reference=tuple(reference), reference_frequency=reference_frequency, frames=frames,
+    )
+    with progress_bar(stderr_is_terminal()) as update:
+        result = run_study(scene, options, progress=update)
+    write_study(result, output)
+    if as_json:
+        emit_json({"rows": result.rows, "reference": result.reference, "machine": result.machine})
+    else:
+        click.echo(format_table(result))

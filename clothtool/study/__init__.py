@@ -1,0 +1,235 @@
+"""clothtool study: speed against error over swept settings, against a converged reference.
+
+For each setting (a combination of swept values) the scene is baked ``repeats`` times (the
+median wall time counts) into memory, and compared with a reference bake: by default the
+same scene, unswept, at a much higher solver frequency with float64 particle state, checked
+for convergence by doubling its frequency until the change is below 10% of the smallest
+error the study reports (or the doubling budget runs out, which the result says).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import statistics
+from pathlib import Path
+
+import numpy as np
+
+from clothtool.bake import BakeOptions, bake
+from clothtool.errors import ClothtoolError, UnstableError
+from clothtool.io.memory import MemoryCacheWriter
+from clothtool.scene.scene import Scene, load_scene
+from clothtool.study.machine import machine_info
+from clothtool.study.sweep import Setting, Sweep, settings
+
+METRICS = ("position", "strain", "penetration", "energy")
+# Frames compared against the reference: about this many, evenly spaced, plus the last.
+COMPARED_FRAMES = 24
+
+
+@dataclasses.dataclass(frozen=True)
+class StudyOptions:
+    sweeps: tuple[Sweep, ...]
+    metric: str = "position"
+    repeats: int = 3
+    overrides: tuple[str, ...] = ()
+    reference: tuple[str, ...] = ()  # extra overrides for the reference bake
+    reference_frequency: float | None = None  # default: 8x the largest swept/scene frequency
+    reference_doublings: int = 2  # how often the reference may double its frequency
+    frames: tuple[int, int] | None = None
+
+
+@dataclasses.dataclass
+class Bake:
+    """Positions of the compared frames plus what the bake reported."""
+
+    frames: dict[int, tuple[np.ndarray, ...]]
+    report: dict
+    wall_s: float
+    masses: tuple[np.ndarray, ...]
+
+
+@dataclasses.dataclass
+class StudyResult:
+    scene: str
+    metric: str
+    rows: list[dict]
+    reference: dict
+    machine: dict
+    sweeps: list[dict]
+
+
+def _keep_every(scene: Scene) -> int:
+    return max(1, (scene.frame_count - 1) // COMPARED_FRAMES)
+
+
+def _bake_once(scene: Scene) -> Bake:
+    writer = MemoryCacheWriter(keep_every=_keep_every(scene))
+    stats = bake(scene, writer, BakeOptions(percentiles=True))
+    masses = tuple(c.fabric.particle_area.astype(np.float64) * c.material.areal_density for c in scene.cloths)
+    return Bake(writer.frames, stats.to_dict(), stats.simulation_s, masses)
+
+
+def _load(path: Path, overrides: list[str], frames) -> Scene:
+    return load_scene(path, overrides, frames)
+
+
+def _scene_frequency(scene: Scene) -> float:
+    return scene.solver.frequency
+
+
+def position_errors(bake_frames, reference_frames, size: float) -> tuple[float, float]:
+    """(RMS, max) distance to the reference over compared frames and particles, / size."""
+    squares, worst, count = 0.0, 0.0, 0
+    for frame, clouds in bake_frames.items():
+        if frame not in reference_frames:
+            continue
+        for mine, theirs in zip(clouds, reference_frames[frame]):
+            d = np.linalg.norm(mine - theirs, axis=1)
+            squares += float(np.sum(d * d))
+            worst = max(worst, float(d.max()))
+            count += d.shape[0]
+    if count == 0:
+        return math.nan, math.nan
+    return math.sqrt(squares / count) / size, worst / size
+
+
+def _cloth_size(reference: Bake) -> float:
+    first = reference.frames[min(reference.frames)]
+    points = np.vstack(first)
+    return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0))) or 1.0
+
+
+def _energy_drift(b: Bake, gravity: np.ndarray, meters_per_unit: float) -> float:
+    """Change of kinetic plus gravitational energy (J) from the first to the last frame."""
+    frames = sorted(b.frames)
+    if len(frames) < 2:
+        return 0.0
+    g = np.asarray(gravity) * meters_per_unit
+
+    def potential(frame):
+        return -sum(float(np.sum(m * ((p * meters_per_unit) @ g))) for m, p in zip(b.masses, b.frames[frame]))
+
+    last = b.report["per_frame"][-1]["cloths"] if b.report["per_frame"] else {}
+    kinetic = sum(c["kinetic_energy"] for c in last.values())
+    return kinetic + potential(frames[-1]) - potential(frames[0])
+
+
+def _row(setting: Setting, runs: list[Bake], reference: Bake, size: float, scene: Scene) -> dict:
+    median = sorted(runs, key=lambda r: r.wall_s)[len(runs) // 2]
+    report = median.report
+    simulated_s = report["frames"]["simulated"] / report["frames"]["fps"] if report["frames"]["fps"] else 0.0
+    overall = report["overall"]
+    strain_max = max((s["max"] for c in overall.values() for s in c["strain"].values()), default=0.0)
+    strain_mean = float(np.mean([s["mean"] for c in overall.values() for s in c["strain"].values()] or [0.0]))
+    strain_p99 = max((s.get("p99", 0.0) for c in overall.values() for s in c["strain"].values()), default=0.0)
+    rms, worst = position_errors(median.frames, reference.frames, size)
+    constraints = sum(c["constraints"] for c in report["cloths"].values())
+    projections = constraints * report["iterations_per_frame"] * report["frames"]["simulated"]
+    penetration = max((c.get("max_penetration", 0.0) for c in overall.values()), default=0.0)
+    wall = statistics.median(r.wall_s for r in runs)
+    return {
+        "setting": setting.as_dict(),
+        "label": setting.label,
+        "family": setting.family,
+        "failed": None,
+        "wall_s": wall,
+        "wall_s_per_simulated_s": wall / simulated_s if simulated_s else math.nan,
+        "runs_s": [r.wall_s for r in runs],
+        "constraint_projections_per_simulated_s": projections / simulated_s if simulated_s else math.nan,
+        "strain_max": strain_max,
+        "strain_mean": strain_mean,
+        "strain_p99": strain_p99,
+        "position_rms": rms,
+        "position_max": worst,
+        "penetration_max": penetration,
+        "energy_drift_J": _energy_drift(median, scene.gravity, scene.meters_per_unit),
+    }
+
+
+def _failed_row(setting: Setting, message: str) -> dict:
+    row = {key: math.nan for key in ("wall_s", "wall_s_per_simulated_s", "constraint_projections_per_simulated_s",
+                                     "strain_max", "strain_mean", "strain_p99", "position_rms", "position_max",
+                                     "penetration_max", "energy_drift_J")}
+    row.update(setting=setting.as_dict(), label=setting.label, family=setting.family, failed=message, runs_s=[])
+    return row
+
+
+def _reference(path: Path, options: StudyOptions, all_settings: list[Setting], rows_min_error) -> tuple[Bake, dict]:
+    base = _load(path, list(options.overrides), options.frames)
+    frequencies = [_scene_frequency(base)]
+    for setting in all_settings:
+        for key, value in setting.values:
+            if key == "solver.frequency" and isinstance(value, (int, float)):
+                frequencies.append(float(value))
+    frequency = options.reference_frequency or 8.0 * max(frequencies)
+    overrides = list(options.overrides) + ["solver.precision=\"float64\""] + list(options.reference)
+    history = []
+    previous = None
+    for attempt in range(options.reference_doublings + 1):
+        scene = _load(path, overrides + [f"solver.frequency={frequency!r}"], options.frames)
+        current = _bake_once(scene)
+        if previous is not None:
+            change, _ = position_errors(previous.frames, current.frames, _cloth_size(current))
+            history.append({"frequency": frequency, "change_from_half": change})
+            if change < 0.1 * rows_min_error(current):
+                return current, {"frequency": frequency, "converged": True, "history": history, "overrides": overrides}
+        previous = current
+        frequency *= 2.0
+    return previous, {"frequency": frequency / 2.0, "converged": False, "history": history, "overrides": overrides}
+
+
+def run_study(scene_path: str | Path, options: StudyOptions, progress=None) -> StudyResult:
+    """Bake every setting ``repeats`` times and the reference; return the table's rows."""
+    if options.metric not in METRICS:
+        raise ClothtoolError(f"--metric {options.metric}: use one of {', '.join(METRICS)}")
+    if options.repeats < 1:
+        raise ClothtoolError("--repeats must be at least 1")
+    path = Path(scene_path)
+    all_settings = settings(list(options.sweeps))
+    baked: list[tuple[Setting, list[Bake] | str]] = []
+    for i, setting in enumerate(all_settings):
+        try:
+            scene = _load(path, list(options.overrides) + setting.overrides, options.frames)
+        except ClothtoolError as exc:
+            raise ClothtoolError(f"--sweep setting {setting.as_dict()}: {exc}") from None
+        runs: list[Bake] | str = []
+        for _ in range(options.repeats):
+            try:
+                runs.append(_bake_once(scene))
+            except UnstableError as exc:
+                runs = str(exc)
+                break
+        baked.append((setting, runs))
+        if progress:
+            progress(i + 1, len(all_settings) + 1)
+
+    def min_error(reference: Bake) -> float:
+        size = _cloth_size(reference)
+        errors = [
+            position_errors(runs[0].frames, reference.frames, size)[0]
+            for _, runs in baked if not isinstance(runs, str)
+        ]
+        errors = [e for e in errors if e > 0 and math.isfinite(e)]
+        return min(errors) if errors else 0.0
+
+    reference, reference_info = _reference(path, options, all_settings, min_error)
+    if progress:
+        progress(len(all_settings) + 1, len(all_settings) + 1)
+    size = _cloth_size(reference)
+    base = _load(path, list(options.overrides), options.frames)
+    rows = [
+        _failed_row(setting, runs) if isinstance(runs, str) else _row(setting, runs, reference, size, base)
+        for setting, runs in baked
+    ]
+    reference_info["cloth_size"] = size
+    reference_info["wall_s"] = reference.wall_s
+    return StudyResult(
+        scene=base.name,
+        metric=options.metric,
+        rows=rows,
+        reference=reference_info,
+        machine=machine_info(),
+        sweeps=[{"key": s.key, "values": list(s.values)} for s in options.sweeps],
+    )

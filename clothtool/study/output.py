@@ -1,0 +1,150 @@
+"""Study outputs: the work-precision table (text, CSV, JSON) and plot (PNG, SVG)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from pathlib import Path
+
+from clothtool.errors import ClothtoolError
+from clothtool.io.atomic import atomic_output
+
+# metric -> (row key plotted, axis label)
+METRIC_COLUMNS = {
+    "position": ("position_rms", "RMS position error / cloth size"),
+    "strain": ("strain_max", "max strain"),
+    "penetration": ("penetration_max", "max penetration (m)"),
+    "energy": ("energy_drift_J", "|energy drift| (J)"),
+}
+COLUMNS = (
+    ("label", "setting"), ("family", "family"), ("wall_s_per_simulated_s", "s/sim s"),
+    ("constraint_projections_per_simulated_s", "proj/sim s"), ("strain_max", "strain max"),
+    ("strain_mean", "strain mean"), ("strain_p99", "strain p99"), ("position_rms", "pos rms"),
+    ("position_max", "pos max"), ("penetration_max", "penetration"), ("energy_drift_J", "energy J"),
+)
+
+
+def pareto_front(rows: list[dict], key: str) -> list[int]:
+    """Indices of rows no other row beats on both time and error (failures excluded)."""
+    good = [
+        (r["wall_s_per_simulated_s"], abs(r[key]), i) for i, r in enumerate(rows)
+        if not r["failed"] and math.isfinite(r[key]) and math.isfinite(r["wall_s_per_simulated_s"])
+    ]
+    front, best = [], math.inf
+    for time_, error, i in sorted(good):
+        if error < best:
+            front.append(i)
+            best = error
+    return front
+
+
+def _cell(value) -> str:
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else f"{value:.4g}"
+    return str(value)
+
+
+def format_table(result) -> str:
+    key = METRIC_COLUMNS[result.metric][0]
+    front = set(pareto_front(result.rows, key))
+    widths = [max(len(title), 11) for _, title in COLUMNS]
+    lines = [
+        f"study {result.scene}: metric {result.metric}, median of the runs per point; * = Pareto front",
+        "  ".join(title.rjust(w) for (_, title), w in zip(COLUMNS, widths)),
+    ]
+    for i, row in enumerate(result.rows):
+        cells = [_cell(row[k]) for k, _ in COLUMNS]
+        cells[0] = ("*" if i in front else " ") + cells[0]
+        lines.append("  ".join(c.rjust(w) for c, w in zip(cells, widths)))
+    failures = [r for r in result.rows if r["failed"]]
+    for row in failures:
+        lines.append(f"FAILED {row['family']} {row['label']}: {row['failed']}")
+    ref = result.reference
+    changes = ", ".join(f"{h['change_from_half']:.3g}" for h in ref["history"]) or "n/a"
+    status = "converged" if ref["converged"] else "NOT converged"
+    lines.append(f"reference: {ref['frequency']:g} Hz, float64, {status} (changes on doubling: {changes})")
+    m = result.machine
+    lines.append(f"machine: {m['cpu']}, {m['cores']} cores, {m['system']}, python {m['python']}, numba {m['numba']}")
+    return "\n".join(lines)
+
+
+def _csv(result) -> str:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    keys = [k for k, _ in COLUMNS] + ["failed"]
+    setting_keys = [s["key"] for s in result.sweeps]
+    writer.writerow(setting_keys + keys)
+    for row in result.rows:
+        writer.writerow([row["setting"].get(k, "") for k in setting_keys] + [row[k] if row[k] is not None else "" for k in keys])
+    return buffer.getvalue()
+
+
+def _plot(result, suffix: str, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    key, label = METRIC_COLUMNS[result.metric]
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    families = []
+    for row in result.rows:
+        if row["family"] not in families:
+            families.append(row["family"])
+    for family in families:
+        rows = [r for r in result.rows if r["family"] == family and not r["failed"] and math.isfinite(r[key]) and r[key] != 0]
+        if not rows:
+            continue
+        xs = [r["wall_s_per_simulated_s"] for r in rows]
+        ys = [abs(r[key]) for r in rows]
+        ax.plot(xs, ys, marker="o", label=family)
+        for x, y, r in zip(xs, ys, rows):
+            ax.annotate(r["label"], (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+    front = [result.rows[i] for i in pareto_front(result.rows, key) if result.rows[i][key] != 0]
+    if front:
+        ax.plot([r["wall_s_per_simulated_s"] for r in front], [abs(r[key]) for r in front], "k--", lw=1,
+                label="Pareto front", alpha=0.6)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("wall time per simulated second (s)")
+    ax.set_ylabel(label)
+    title = f"{result.scene}: work-precision"
+    failures = [f"{r['family']} {r['label']}" for r in result.rows if r["failed"]]
+    if failures:
+        title += "\nfailed: " + ", ".join(failures)
+    ax.set_title(title, fontsize=9)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    with matplotlib.rc_context({"svg.hashsalt": "clothtool"}):
+        fig.savefig(path, format=suffix, metadata={"Date": None} if suffix == "svg" else {"Software": None}, dpi=120,
+                    bbox_inches="tight")
+    plt.close(fig)
+
+
+def write_study(result, out_dir: str | Path) -> list[Path]:
+    """Write table.txt/.csv/.json and plot.png/.svg into ``out_dir`` (created if missing)."""
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ClothtoolError(f"{out}: exists and is not a directory; give a directory for the study")
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    texts = {
+        "table.txt": format_table(result) + "\n",
+        "table.csv": _csv(result),
+        "table.json": json.dumps(
+            {"scene": result.scene, "metric": result.metric, "sweeps": result.sweeps, "rows": result.rows,
+             "reference": result.reference, "machine": result.machine},
+            indent=2, sort_keys=True, default=float,
+        ) + "\n",
+    }
+    for name, text in texts.items():
+        with atomic_output(out / name) as tmp:
+            tmp.write_text(text)
+        written.append(out / name)
+    for suffix in ("png", "svg"):
+        with atomic_output(out / f"plot.{suffix}") as tmp:
+            _plot(result, suffix, tmp)
+        written.append(out / f"plot.{suffix}")
+    return written
