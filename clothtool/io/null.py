@@ -1,0 +1,38 @@
+"""A cache writer that writes nothing: benchmarks time the solver, not the disk.
+
+``clothtool bake SCENE -o null`` (or ``-o /dev/null``) selects it.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from clothtool.errors import ClothtoolError
+from clothtool.io.cache import CacheHeader, CacheOptions, FrameData
+
+
+class NullCacheWriter:
+    """The CacheWriter protocol with every write discarded; only counts frames."""
+
+    def __init__(self, path: Path | None = None, options: CacheOptions = CacheOptions()):
+        self.path = Path(os.devnull)
+        self.header: CacheHeader | None = None
+        self.frames_written = 0
+
+    def __enter__(self) -> "NullCacheWriter":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        pass
+
+    def write_header(self, header: CacheHeader) -> None:
+        self.header = header
+
+    def write_frame(self, frame: FrameData) -> None:
+        if self.header is None:
+            raise ClothtoolError(f"{self.path}: write_frame called before write_header")
+        self.frames_written += 1
+
+    def commit(self) -> None:
+        pass
