@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 
 from clothtool.errors import FabricError
@@ -98,3 +101,37 @@ def format_fabric_summary(summary: dict, name: str) -> str:
         )
     lines.append(f"  validation {summary['validation']}")
     return "\n".join(lines)
+
+
+def _hdf5_format(path: Path) -> str | None:
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            value = f.attrs.get("format")
+    except OSError:
+        return None
+    return value.decode() if isinstance(value, bytes) else value
+
+
+def summarize_file(path: str | os.PathLike) -> tuple[dict, str]:
+    """(JSON-ready summary, text) of a fabric or a cache, recognised by suffix and header."""
+    from clothtool.errors import FormatError
+    from clothtool.io.cache import read_cache, supported_suffixes
+
+    path = Path(path)
+    if not path.is_file():
+        raise FormatError(f"{path}: file not found; check the path")
+    suffix = path.suffix.lower()
+    if suffix not in supported_suffixes():
+        raise FormatError(f"{path}: unknown file type '{suffix}'; inspect reads fabrics (.fabric.h5) and caches ({', '.join(supported_suffixes())})")
+    if suffix in (".h5", ".hdf5") and _hdf5_format(path) != "clothtool-cache":
+        from clothtool.io.fabric_file import read_fabric
+
+        summary = fabric_summary(read_fabric(path))
+        return summary, format_fabric_summary(summary, path.name)
+    from clothtool.io.cache_common import format_cache_summary
+
+    with read_cache(path) as cache:
+        summary = cache.summary()
+    return summary, format_cache_summary(summary, path.name)

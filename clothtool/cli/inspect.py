@@ -14,20 +14,19 @@ from clothtool.cli.common import emit_json, handle_errors
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
 @handle_errors
 def inspect(path: Path, as_json: bool) -> None:
-    """Summarise a fabric (.fabric.h5).
+    """Summarise a fabric (.fabric.h5) or a cache (.usdc/.usda/.usd, .h5).
 
     Exit code 1 when the file is missing, not a clothtool file, truncated or invalid.
 
     \b
-    Example:
+    Examples:
       clothtool inspect skirt.fabric.h5 --json
+      clothtool inspect skirt.usdc
     """
-    from clothtool.io.fabric_file import read_fabric
-    from clothtool.summary import fabric_summary, format_fabric_summary
+    from clothtool.summary import summarize_file
 
-    fabric = read_fabric(path)
-    summary = fabric_summary(fabric)
+    summary, text = summarize_file(path)
     if as_json:
         emit_json(summary)
     else:
-        click.echo(format_fabric_summary(summary, path.name))
+        click.echo(text)

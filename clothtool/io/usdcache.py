@@ -23,7 +23,7 @@ from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.atomic import check_output_path, temporary_sibling
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData, partial_path
-from clothtool.io.h5cache import (
+from clothtool.io.cache_common import (
     FORMAT_NAME,
     FORMAT_VERSION,
     CacheReader,

@@ -419,7 +419,7 @@ def test_null_writer_discards_frames():
 
 
 def test_summary_text_is_short_and_names_the_file(out_dir):
-    from clothtool.io.h5cache import format_cache_summary
+    from clothtool.io.cache_common import format_cache_summary
 
     header = make_header()
     write_cache(out_dir / "shot.usdc", header, count=4)
