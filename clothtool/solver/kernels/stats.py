@@ -30,14 +30,19 @@ def motion_summary(cur, prev, masses, inv_dt):
     energy = 0.0
     bad = -1
     for i in range(cur.shape[0]):
-        vx = np.float64(cur[i, 0] - prev[i, 0]) * inv_dt
-        vy = np.float64(cur[i, 1] - prev[i, 1]) * inv_dt
-        vz = np.float64(cur[i, 2] - prev[i, 2]) * inv_dt
-        speed_sqr = vx * vx + vy * vy + vz * vz
-        if not np.isfinite(speed_sqr) or not np.isfinite(cur[i, 0] + cur[i, 1] + cur[i, 2]):
+        finite = True
+        for d in range(3):
+            # test each coordinate: a float32 sum of finite coordinates can overflow to inf
+            if not (np.isfinite(cur[i, d]) and np.isfinite(prev[i, d])):
+                finite = False
+        if not finite:
             if bad < 0:
                 bad = i
             continue
+        vx = (np.float64(cur[i, 0]) - np.float64(prev[i, 0])) * inv_dt
+        vy = (np.float64(cur[i, 1]) - np.float64(prev[i, 1])) * inv_dt
+        vz = (np.float64(cur[i, 2]) - np.float64(prev[i, 2])) * inv_dt
+        speed_sqr = vx * vx + vy * vy + vz * vz
         if speed_sqr > max_speed_sqr:
             max_speed_sqr = speed_sqr
             fastest = i
@@ -47,7 +52,8 @@ def motion_summary(cur, prev, masses, inv_dt):
 
 @kernel
 def tether_stretch(anchors, lengths, cur):
-    """Largest tether length ratio |p - anchor| / length - 1 over active tethers (0 if none)."""
+    """Largest tether stretch |p - anchor| / length - 1 over active tethers; 0 when no tether
+    is stretched (slack tethers do not count as negative stretch)."""
     n = cur.shape[0]
     worst = 0.0
     for t in range(anchors.shape[0]):

@@ -1,0 +1,131 @@
+"""constraint_strain / motion_summary / tether_stretch against tests/reference/stats.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from clothtool.solver.kernels.stats import constraint_strain, motion_summary, tether_stretch
+from tests.kernels._data import U, assert_close, f32, particles
+from tests.reference import stats as ref
+
+seeds = st.integers(0, 2**32 - 1)
+INV_DT = 240.0
+
+
+def strain_of(indices, rest, cur):
+    out = np.full(rest.shape[0], np.nan, np.float32)
+    constraint_strain(indices, rest, cur, out)
+    return out
+
+
+@settings(max_examples=25)
+@given(seed=seeds, n=st.integers(2, 40), c=st.integers(0, 80))
+def test_strain_matches_reference(seed, n, c):
+    rng = np.random.default_rng(seed)
+    cur, _ = particles(rng, n)
+    indices = np.ascontiguousarray(rng.integers(0, n, (c, 2)), np.int32)
+    p = cur[:, :3].astype(np.float64)
+    rest = np.linalg.norm(p[indices[:, 1]] - p[indices[:, 0]], axis=1) * rng.uniform(0.7, 1.3, c)
+    rest = np.where(rest < 0.05, 0.0, rest)  # short and self pairs: rest length 0, strain 0
+    rest[rng.random(c) < 0.1] = 0.0
+    rest = f32(rest)
+    got = strain_of(indices, rest, cur)
+    want = ref.constraint_strain(indices, rest, cur)
+    # float32 throughout: a float32 difference is within U of its own value (relative), then
+    # three squares, two sums, a sqrt and a division each add U relative to |h| / r = strain + 1,
+    # and the final - 1 rounds once more
+    assert_close(got, want, 10 * U * (np.abs(want) + 1), "strain")
+    np.testing.assert_array_equal(got[rest == 0], 0.0)
+
+
+@settings(max_examples=30)
+@given(seed=seeds, n=st.integers(0, 60), broken=st.floats(0.0, 0.3))
+def test_motion_summary_matches_reference(seed, n, broken):
+    rng = np.random.default_rng(seed)
+    cur, prev = particles(rng, n, speed=0.01)
+    masses = rng.uniform(0.001, 0.01, n)
+    bad = rng.random(n) < broken
+    where = rng.integers(0, 3, n)
+    cur[bad & (where == 0), rng.integers(0, 3)] = np.nan
+    cur[bad & (where == 1), rng.integers(0, 3)] = np.inf
+    prev[bad & (where == 2), rng.integers(0, 3)] = -np.inf
+    speed, energy, fastest, first_bad = motion_summary(cur, prev, masses, INV_DT)
+    want_speed, want_energy, want_fastest, want_bad = ref.motion_summary(cur, prev, masses, INV_DT)
+    # the kernel takes cur - prev in float32, within U of the exact difference (relative, per
+    # component), and sums in float64: speeds within ~U and energies within ~2U, relative
+    assert speed == pytest.approx(want_speed, rel=4 * U, abs=1e-300)
+    assert energy == pytest.approx(want_energy, rel=8 * U, abs=1e-300)
+    assert first_bad == want_bad
+    if want_speed > 0:  # the fastest particle is unique (random speeds)
+        assert fastest == want_fastest
+
+
+def test_motion_summary_edge_cases():
+    masses = np.ones(3)
+    rest = f32([[0, 0, 0, 1], [1, 1, 1, 1], [2, 2, 2, 1]])
+    assert motion_summary(rest, rest.copy(), masses, INV_DT) == (0.0, 0.0, 0, -1)
+    empty = np.zeros((0, 4), np.float32)
+    assert motion_summary(empty, empty, np.zeros(0), INV_DT) == (0.0, 0.0, 0, -1)
+    cur = rest.copy()
+    cur[1, 0] += np.float32(0.5)
+    cur[2, 1] = np.nan
+    speed, energy, fastest, bad = motion_summary(cur, rest, masses, INV_DT)
+    assert (fastest, bad) == (1, 2)
+    assert speed == pytest.approx(0.5 * INV_DT) and energy == pytest.approx(0.5 * (0.5 * INV_DT) ** 2)
+
+
+def test_motion_summary_huge_but_finite_particle_is_finite():
+    # finiteness is tested per coordinate: a float32 sum of finite coordinates can overflow
+    big = np.float32(2e38)
+    cur = f32([[0, 0, 0, 1], [big, big, 0, 1]])
+    prev = cur.copy()
+    assert np.isfinite(cur).all() and np.isfinite(prev).all()
+    want = ref.motion_summary(cur, prev, np.ones(2), INV_DT)
+    assert want == (0.0, 0.0, 0, -1)
+    assert motion_summary(cur, prev, np.ones(2), INV_DT) == want
+
+
+def tether_layout(rng, n, k):
+    """Slot s of particle i at s*n + i; pinned particles and some slots hold i with length 0."""
+    pinned = rng.random(n) < 0.25
+    pinned[0] = True
+    anchors = np.tile(np.arange(n), k)
+    lengths = np.zeros(k * n)
+    free = np.flatnonzero(~pinned)
+    for s in range(k):
+        active = free[rng.random(free.size) < 0.8]
+        anchors[s * n + active] = rng.choice(np.flatnonzero(pinned), active.size)
+        lengths[s * n + active] = rng.uniform(0.3, 2.0, active.size)
+    return anchors.astype(np.int32), f32(lengths)
+
+
+@settings(max_examples=25)
+@given(seed=seeds, n=st.integers(1, 40), k=st.integers(1, 3), stretch=st.booleans())
+def test_tether_stretch_matches_reference(seed, n, k, stretch):
+    rng = np.random.default_rng(seed)
+    cur, _ = particles(rng, n)
+    if not stretch:
+        cur[:, :3] *= np.float32(0.05)  # every tether slack: the stretch is 0, not negative
+    anchors, lengths = tether_layout(rng, n, k)
+    got = tether_stretch(anchors, lengths, cur)
+    want = ref.tether_stretch(anchors, lengths, cur)
+    # the kernel takes p - anchor in float32 (within U relative per component), then float64:
+    # the ratio |d| / length is within ~2U of exact, relative
+    assert got == pytest.approx(want, abs=4 * U * (want + 1))
+    if not stretch:
+        assert got == 0.0
+
+
+def test_tether_stretch_ignores_inactive_slots():
+    cur = f32([[0, 0, 0, 0], [0, -3, 0, 1]])
+    # slot 0: particle 1 hangs 3 from anchor 0 on a tether of 2 (50% stretch); slot 1: self
+    # slots (anchor = particle) and a zero length, which must not count (3 / 0)
+    anchors = np.array([0, 0, 0, 1], np.int32)
+    lengths = f32([0, 2, 0, 0])
+    assert tether_stretch(anchors, lengths, cur) == pytest.approx(0.5)
+    assert ref.tether_stretch(anchors, lengths, cur) == pytest.approx(0.5)
+    assert tether_stretch(np.zeros(0, np.int32), f32([]), cur) == 0.0
+    assert ref.tether_stretch(np.zeros(0, np.int32), f32([]), cur) == 0.0

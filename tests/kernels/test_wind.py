@@ -1,0 +1,135 @@
+"""apply_wind against tests/reference/wind.py (a sequential loop: the order matters)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from clothtool.mesh.shapes import grid
+from clothtool.solver.kernels.wind import FLT_EPSILON, apply_wind
+from tests.kernels._data import F32, U, assert_close, f32
+from tests.reference import wind as ref
+
+H = 1.0 / 240.0  # iteration length: 60 fps, 4 iterations
+# Positions stay below ~1.5 and every particle takes <= 6 triangle impulses, each one rounding
+# of a value below 1.5; the impulses themselves (~1e-2) carry the relative error of d, whose
+# float32 cancellation (c_t - p_t with |c| ~ 1, |d| ~ 1e-2) is ~1e-5: another ~1e-7.
+ATOL = 16 * U * 1.5
+NO_FRAME = (np.zeros((3, 3), np.float32), np.zeros(3, np.float32))
+
+
+def cloth(rng, columns=7, rows=6, spacing=0.2, speed=2.0, pinned=0.15):
+    """A crumpled triangulated grid moving at about ``speed`` m/s, as (triangles, cur, prev)."""
+    mesh = grid(columns, rows, spacing=spacing)
+    triangles = mesh.face_vertex_indices.reshape(-1, 3).astype(np.int32)
+    n = mesh.vertex_count
+    prev = np.empty((n, 4), np.float32)
+    prev[:, :3] = mesh.vertex_pos + rng.normal(0.0, 0.05, (n, 3))
+    prev[:, 3] = np.where(rng.random(n) < pinned, 0.0, rng.uniform(0.5, 2.0, n))
+    cur = prev.copy()
+    velocity = rng.normal(0.0, speed, 3) + rng.normal(0.0, 0.3 * speed, (n, 3))
+    cur[:, :3] += (velocity * H).astype(np.float32)
+    return np.ascontiguousarray(triangles), cur, prev
+
+
+def coefficients(rng, density=(2.0, 5.0)):
+    """Each impulse moves a particle by about drag * |v| * rho * a * w * |d|: with |v| ~ 2 m/s,
+    a ~ 0.04 and w ~ 1 that is ~10-30% of |d| ~ 1e-2, far above ATOL yet well short of the
+    over-correction (> 100%) at which repeated impulses blow up."""
+    inv_dt = F32(1.0 / H)
+    drag, lift = F32(rng.uniform(0.1, 0.6)), F32(rng.uniform(0.1, 0.6))
+    return inv_dt, drag, lift, F32(rng.uniform(*density))
+
+
+def run(triangles, frame, air, coeffs, cur, prev):
+    out = cur.copy()
+    apply_wind(triangles, frame[0], frame[1], air, *coeffs, out, prev)
+    return out
+
+
+def compare(triangles, frame, air, coeffs, cur, prev):
+    got = run(triangles, frame, air, coeffs, cur, prev)
+    want = ref.apply_wind(triangles, frame[0], frame[1], air, *coeffs, cur, prev)
+    assert_close(got, want, ATOL, "cur")
+    np.testing.assert_array_equal(got[:, 3], cur[:, 3])  # inverse masses are read, not written
+    pinned = cur[:, 3] == 0
+    np.testing.assert_array_equal(got[pinned], cur[pinned])
+    return got, want
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_drag_and_lift_in_still_air(seed):
+    rng = np.random.default_rng(seed)
+    triangles, cur, prev = cloth(rng)
+    got, _ = compare(triangles, NO_FRAME, f32(np.zeros(3)), coefficients(rng), cur, prev)
+    assert np.abs(got - cur).max() > 1000 * ATOL  # the test exercises real impulses
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_wind_and_frame_motion(seed):
+    rng = np.random.default_rng(100 + seed)
+    triangles, cur, prev = cloth(rng, speed=0.5)
+    air = f32(rng.normal(0.0, 5.0, 3) * H)  # wind velocity * dt, local space
+    angle = rng.normal(0.0, 0.02, 3)
+    x, y, z = angle
+    matrix = f32([[0, -z, y], [z, 0, -x], [-y, x, 0]])  # a small rotation's displacement
+    offset = f32(rng.normal(0.0, 1.0, 3) * H)
+    compare(triangles, (matrix, offset), air, coefficients(rng), cur, prev)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_shared_particles_make_the_order_matter(seed):
+    """A random triangle soup over few particles: every particle is shared by many triangles,
+    each of which sees the positions the earlier ones pushed."""
+    rng = np.random.default_rng(200 + seed)
+    n, t = 12, 60
+    triangles = np.array([rng.choice(n, 3, replace=False) for _ in range(t)], np.int32)
+    prev = np.empty((n, 4), np.float32)
+    prev[:, :3] = rng.uniform(-0.3, 0.3, (n, 3))
+    prev[:, 3] = rng.uniform(0.5, 2.0, n)
+    cur = prev.copy()
+    cur[:, :3] += f32(rng.normal(0.0, 2.0, (n, 3)) * H)
+    coeffs = coefficients(rng, density=(0.5, 1.0))  # ~15 triangles push each particle
+    air = f32([0.0, 0.0, 3.0 * H])
+    forward, _ = compare(triangles, NO_FRAME, air, coeffs, cur, prev)
+    backward, _ = compare(np.ascontiguousarray(triangles[::-1]), NO_FRAME, air, coeffs, cur, prev)
+    assert np.abs(forward - backward).max() > 100 * ATOL
+
+
+def test_motion_below_the_epsilon_gives_no_impulse():
+    """Two separate patches: one creeping (|d|^2 ~ 1e-10 < FLT_EPSILON), one moving. The
+    creeping patch is left bit for bit; the moving one is pushed."""
+    rng = np.random.default_rng(5)
+    triangles, cur, prev = cloth(rng, columns=4, rows=4, pinned=0.0)
+    n = cur.shape[0]
+    cur[:, :3] = prev[:, :3] + f32(rng.normal(0.0, 5e-6, (n, 3)))  # creeping
+    moving = cur.copy()
+    moving[:, :3] += f32([0.0, 0.0, 0.02])
+    both_cur = np.concatenate([cur, moving])
+    both_prev = np.concatenate([prev, prev])
+    both_tri = np.concatenate([triangles, triangles + n]).astype(np.int32)
+    creep_d = (cur[:, :3] - prev[:, :3]).astype(np.float64)
+    assert np.max(np.sum(creep_d**2, axis=1)) < FLT_EPSILON / 100
+    got, _ = compare(both_tri, NO_FRAME, f32(np.zeros(3)), coefficients(rng), both_cur, both_prev)
+    np.testing.assert_array_equal(got[:n], both_cur[:n])
+    assert np.abs(got[n:] - both_cur[n:]).max() > 1000 * ATOL
+
+
+def test_degenerate_triangle_gets_no_impulse():
+    cur = f32([[0, 0, 0, 1], [1, 0, 0, 1], [2, 0, 0, 1], [0, 1, 0, 1]])  # 0,1,2 collinear
+    prev = cur.copy()
+    prev[:, 2] -= F32(0.05)
+    triangles = np.array([[0, 1, 2]], np.int32)
+    got, _ = compare(triangles, NO_FRAME, f32(np.zeros(3)), coefficients(np.random.default_rng(0)), cur, prev)
+    np.testing.assert_array_equal(got, cur)
+    # the same motion on a proper triangle is pushed back against the motion (drag)
+    triangles = np.array([[0, 1, 3]], np.int32)
+    got, _ = compare(triangles, NO_FRAME, f32(np.zeros(3)), coefficients(np.random.default_rng(0)), cur, prev)
+    assert np.all(got[[0, 1, 3], 2] < cur[[0, 1, 3], 2])
+
+
+def test_empty_triangles():
+    rng = np.random.default_rng(1)
+    _, cur, prev = cloth(rng, columns=2, rows=2)
+    got = run(np.zeros((0, 3), np.int32), NO_FRAME, f32(np.zeros(3)), coefficients(rng), cur, prev)
+    np.testing.assert_array_equal(got, cur)

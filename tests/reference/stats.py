@@ -1,0 +1,62 @@
+"""Reference for clothtool.solver.kernels.stats (per-frame measurements), vectorised, float64."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def constraint_strain(indices, rest, cur, strain=None):
+    """Returns (c,) |p_b - p_a| / rest - 1, and 0 where the rest length is 0 (``strain``, the
+    kernel's output array, is not needed)."""
+    indices = np.asarray(indices, np.int64).reshape(-1, 2)
+    p = np.asarray(cur, np.float64)[:, :3]
+    rest = np.asarray(rest, np.float64)
+    length = np.linalg.norm(p[indices[:, 1]] - p[indices[:, 0]], axis=1)
+    out = np.zeros(rest.shape[0])
+    positive = rest > 0.0
+    out[positive] = length[positive] / rest[positive] - 1.0
+    return out
+
+
+def _nonfinite(cur, prev):
+    """bool (n,): particles whose position or previous position is not finite."""
+    cur, prev = np.asarray(cur)[:, :3], np.asarray(prev)[:, :3]
+    return ~(np.isfinite(cur).all(axis=1) & np.isfinite(prev).all(axis=1))
+
+
+def motion_summary(cur, prev, masses, inv_dt):
+    """(max speed, kinetic energy, index of the fastest particle, index of the first
+    non-finite particle or -1) over the finite particles, with speeds (cur - prev) / dt.
+
+    The fastest particle is the first one with the top speed. When no finite particle moves,
+    every one of them is "fastest"; this returns the first finite one (0 if there is none),
+    and the tests do not hold the kernel to that choice.
+    """
+    bad = _nonfinite(cur, prev)
+    good = ~bad
+    with np.errstate(invalid="ignore"):  # inf - inf on the non-finite particles
+        v = (np.asarray(cur, np.float64)[:, :3] - np.asarray(prev, np.float64)[:, :3]) * float(inv_dt)
+    v[bad] = 0.0
+    speed_sqr = np.einsum("ij,ij->i", v, v)
+    if not good.any():
+        return 0.0, 0.0, 0, int(np.flatnonzero(bad)[0]) if bad.size else -1
+    fastest = int(np.argmax(np.where(good, speed_sqr, -np.inf)))
+    energy = float(0.5 * (np.asarray(masses, np.float64)[good] * speed_sqr[good]).sum())
+    first_bad = int(np.flatnonzero(bad)[0]) if bad.any() else -1
+    return float(np.sqrt(speed_sqr[fastest])), energy, fastest, first_bad
+
+
+def tether_stretch(anchors, lengths, cur):
+    """Largest |p_i - p_anchor| / length - 1 over the active tethers (slot s of particle i at
+    s*n + i; inactive slots point at i itself or have length 0). A tether is a max-distance
+    constraint: a slack one is not stretched, so the result is never below 0 (0 if none)."""
+    p = np.asarray(cur, np.float64)[:, :3]
+    n = p.shape[0]
+    anchors = np.asarray(anchors, np.int64)
+    lengths = np.asarray(lengths, np.float64)
+    own = np.arange(anchors.shape[0]) % n if n else np.zeros(0, np.int64)
+    active = (anchors != own) & (lengths > 0.0)
+    if not active.any():
+        return 0.0
+    ratio = np.linalg.norm(p[anchors[active]] - p[own[active]], axis=1) / lengths[active] - 1.0
+    return max(0.0, float(ratio.max()))
