@@ -21,7 +21,7 @@ from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameDa
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
 from clothtool.solver.cloth import ClothSolver
-from clothtool.solver.environment import Environment
+from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import Pose
 from clothtool.solver.measure import ClothMeter
 from clothtool.solver.model import build_model
@@ -87,6 +87,7 @@ class BakeStats:
                 "max_speed": max(f["max_speed"] for f in frames),
                 "max_kinetic_energy": max(f["kinetic_energy"] for f in frames),
                 "finite": all(f["finite"] for f in frames),
+                "asleep_frames": sum(bool(f.get("asleep", False)) for f in frames),
             }
             if "tether_stretch" in frames[0]:
                 entry["max_tether_stretch"] = max(f["tether_stretch"] for f in frames)
@@ -137,14 +138,28 @@ def _track_pose(track):
     return pose
 
 
+def _solver_class(integrator: str):
+    """The solver class of ``solver.integrator`` (imported only when a scene asks for it)."""
+    if integrator == "implicit":
+        from clothtool.integrators.implicit.solver import ImplicitClothSolver
+
+        return ImplicitClothSolver
+    if integrator == "explicit":
+        from clothtool.integrators.explicit.solver import ExplicitClothSolver
+
+        return ExplicitClothSolver
+    return ClothSolver
+
+
 def make_solvers(scene: Scene, profiler: StageProfiler) -> list[ClothSolver]:
     """One ClothSolver per cloth instance of ``scene``."""
     wind = None
-    density = 1.0
+    density = AIR_DENSITY
     if scene.wind is not None:
         wind = scene.wind.velocity_at
         density = scene.wind.fluid_density
-    environment = Environment(np.asarray(scene.gravity, np.float64), wind, density)
+    colliders = scene.colliders.at if scene.colliders is not None and len(scene.colliders) else None
+    environment = Environment(np.asarray(scene.gravity, np.float64), wind, density, colliders)
     solvers = []
     for cloth in scene.cloths:
         model = build_model(
@@ -153,9 +168,14 @@ def make_solvers(scene: Scene, profiler: StageProfiler) -> list[ClothSolver]:
         )
         track = _track_pose(cloth.track) if cloth.track is not None else None
         teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
+        solver_class = _solver_class(scene.solver.integrator)
+        extra = {"frame_dt": 1.0 / scene.fps} if scene.solver.integrator == "explicit" else {}
         solvers.append(
-            ClothSolver(model, scene.solver, environment, profiler, track, teleports, cloth.initial_velocity)
+            solver_class(model, scene.solver, environment, profiler, track, teleports, cloth.initial_velocity, **extra)
         )
+    if scene.solver.cloth_collision:  # each cloth collides with the scene's other cloths
+        for solver in solvers:
+            solver.set_neighbours(solvers)
     return solvers
 
 
@@ -227,6 +247,7 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
                 "constraints": int(s.model.constraint_indices.shape[0]),
                 "source": c.source,
                 "stages": s.stage_names,
+                **({"stability": s.stability} if hasattr(s, "stability") else {}),
             }
             for s, c in zip(solvers, scene.cloths)
         },
@@ -253,6 +274,7 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
         meters_per_unit=scene.meters_per_unit,
         up_axis=scene.up_axis,
         cloths=tuple(_topology(solver, attributes) for solver in solvers),
+        colliders=scene.colliders.infos() if _writes_colliders(scene) else (),
         attributes=frozenset(attributes),
         stats_fields=STATS_FIELDS if "stats" in attributes else (),
         metadata={"scene": scene.name, "generator": f"clothtool {__version__}"},
@@ -264,11 +286,11 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
         with writer:
             writer.write_header(header)
             with profiler.stage("write"):
-                writer.write_frame(_initial_frame(scene, solvers, attributes))
+                writer.write_frame(_with_colliders(scene, _initial_frame(scene, solvers, attributes)))
             if options.progress:
                 options.progress(1, total)
             for done, frame in enumerate(range(scene.start_frame + 1, scene.end_frame + 1), start=2):
-                plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt) for s in solvers]
+                plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
                 stats.iterations_per_frame = max(p.iterations for p in plans)
                 for index in range(stats.iterations_per_frame):
                     for solver, plan in zip(solvers, plans):
@@ -278,13 +300,16 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
                     per_cloth = {}
                     for solver, meter, plan in zip(solvers, meters, plans):
                         cloth_stats = meter.measure(plan.h, options.percentiles)
+                        cloth_stats["asleep"] = solver.asleep  # asleep at the frame's end
+                        if hasattr(solver, "frame_stats"):  # e.g. the implicit solver's CG figures
+                            cloth_stats.update(solver.frame_stats())
                         per_cloth[solver.model.name] = cloth_stats
                     stats.per_frame.append({"frame": frame, "cloths": per_cloth})
                     stats.frames_simulated += 1
                     for solver in solvers:
                         _check_stable(scene, frame, solver, per_cloth[solver.model.name])
                 with profiler.stage("write"):
-                    writer.write_frame(_frame_data(frame, solvers, plans, per_cloth, attributes))
+                    writer.write_frame(_with_colliders(scene, _frame_data(frame, solvers, plans, per_cloth, attributes)))
                 if options.progress:
                     options.progress(done, total)
             writer.commit()
@@ -305,6 +330,20 @@ def _finish(stats: BakeStats, profiler: StageProfiler, wall0: float, cpu0: float
     stats.cpu_s = time.process_time() - cpu0
     stats.jit_s = profiler.seconds.get("jit warm-up", 0.0)
     stats.profile = profiler.table(stats.frames_simulated)
+
+
+def _writes_colliders(scene: Scene) -> bool:
+    return "colliders" in scene.output.attributes and scene.colliders is not None and len(scene.colliders) > 0
+
+
+def _with_colliders(scene: Scene, frame: FrameData) -> FrameData:
+    """Add the colliders' world transforms (and deformed points) at the frame's time."""
+    if not _writes_colliders(scene):
+        return frame
+    time = scene.frame_time(frame.frame)
+    return dataclasses.replace(
+        frame, collider_xforms=scene.colliders.xforms(time), collider_points=scene.colliders.deformed_points(time)
+    )
 
 
 def _initial_frame(scene: Scene, solvers: list[ClothSolver], attributes) -> FrameData:
@@ -330,3 +369,49 @@ def _frame_data(frame, solvers, plans, per_cloth, attributes) -> FrameData:
     if "stats" in attributes:
         stats = tuple(_frame_stats_fields(per_cloth[s.model.name]) for s in solvers)
     return FrameData(frame, tuple(s.world_points() for s in solvers), velocities, stats)
+
+
+def plan(scene: Scene, calibration_frames: int = 2) -> dict:
+    """The stage plan of ``scene`` without baking it: per cloth the stages that would run and
+    the iterations per frame, and an estimated cost from simulating a couple of frames."""
+    profiler = StageProfiler()
+    solvers = make_solvers(scene, profiler)
+    for solver in solvers:
+        solver.warm_up()
+    frames = min(calibration_frames, max(scene.frame_count - 1, 0))
+    frame_dt = 1.0 / scene.fps
+    iterations = 0
+    for frame in range(scene.start_frame + 1, scene.start_frame + 1 + frames):
+        for solver in solvers:
+            iterations = solver.step(frame, scene.frame_time(frame - 1), frame_dt).iterations
+    per_frame = {name: seconds / max(frames, 1) for name, seconds in profiler.seconds.items()}
+    estimate = sum(per_frame.values()) * (scene.frame_count - 1)
+    return {
+        "scene": scene.name,
+        "frames": {"start": scene.start_frame, "end": scene.end_frame, "fps": scene.fps},
+        "iterations_per_frame": iterations or max(1, int(frame_dt * scene.solver.frequency + 0.5)),
+        "solver": dataclasses.asdict(scene.solver),
+        "cloths": {
+            s.model.name: {"particles": s.model.particle_count, "constraints": int(s.model.constraint_indices.shape[0]),
+                           "stages": s.stage_names}
+            for s in solvers
+        },
+        "calibration_frames": frames,
+        "stage_ms_per_frame": {name: 1000.0 * seconds for name, seconds in per_frame.items()},
+        "estimated_bake_s": estimate,
+    }
+
+
+def format_plan(data: dict) -> str:
+    lines = [
+        f"plan {data['scene']}: frames {data['frames']['start']}..{data['frames']['end']} at {data['frames']['fps']:g} fps, "
+        f"{data['iterations_per_frame']} iterations per frame ({data['solver']['stiffness_mode']} stiffness, "
+        f"{data['solver']['frequency']:g} Hz)"
+    ]
+    for name, cloth in data["cloths"].items():
+        lines.append(f"  {name}: {cloth['particles']} particles, {cloth['constraints']} constraints; stages {', '.join(cloth['stages'])}")
+    lines.append(f"  calibration over {data['calibration_frames']} frames, ms per frame:")
+    for stage, ms in data["stage_ms_per_frame"].items():
+        lines.append(f"    {stage:<14} {ms:9.3f}")
+    lines.append(f"  estimated bake time {data['estimated_bake_s']:.2f} s (JIT compile and cache writing excluded)")
+    return "\n".join(lines)

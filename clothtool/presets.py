@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import tomllib
 import types
 import typing
@@ -43,7 +44,25 @@ def read_toml(path: Path, error=PresetError) -> dict[str, Any]:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise error(f"{path}: malformed TOML: {exc}; fix the syntax there") from None
+        raise error(f"{path}: malformed TOML {_where(str(exc), text)}; fix the syntax there") from None
+
+
+def _where(message: str, text: str) -> str:
+    """tomllib's message with the offending line quoted (tomllib names line and column, or
+    says "end of document", but not the key)."""
+    lines = text.splitlines()
+    match = re.search(r"\(at line (\d+), column \d+\)", message)
+    if match:
+        number = int(match.group(1))
+    elif "end of document" in message:
+        number = max(len(lines), 1)
+        while number > 1 and not lines[number - 1].strip():
+            number -= 1
+    else:
+        return f"({message})"
+    reason = re.sub(r"\s*\(at [^)]*\)", "", message)
+    source = lines[number - 1].strip() if 0 < number <= len(lines) else ""
+    return f"at line {number}: {reason} in '{source}'"
 
 
 def load_preset(kind: str, name: str) -> tuple[dict[str, Any], str]:

@@ -44,7 +44,8 @@ def progress_bar(enabled: bool):
 
 @click.command()
 @click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", required=True, help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames.")
+@click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames.")
+@click.option("--dry-run", is_flag=True, help="Print the stage plan and an estimated cost; bake nothing.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a scene or preset key, e.g. --set solver.frequency=600 (repeatable).")
 @click.option("--frames", callback=parse_frames, metavar="START:END", help="Bake only these frames (inclusive).")
@@ -55,9 +56,10 @@ def progress_bar(enabled: bool):
 @click.option("--compression", type=click.Choice(["gzip", "lzf", "none"]), help="HDF5 compression [scene's, else gzip].")
 @click.option("--save-every", type=click.IntRange(min=1), help="USD: save every N frames so memory stays flat [10].")
 @click.option("--strict", is_flag=True, help="Treat warnings (mesh repairs when cooking on the fly) as errors.")
+@click.option("--force", is_flag=True, help="Run the explicit integrator even beyond its stability limit.")
 @click.option("--progress/--no-progress", default=None, help="Progress bar on stderr [on when stderr is a terminal].")
 @handle_errors
-def bake(scene, output, overrides, frames, profile, report_path, as_json, compression, save_every, strict, progress):
+def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force, progress):
     """Bake SCENE (a scene .toml) into a cache.
 
     Exit code 1 on bad input or an unstable bake (the frames written so far are kept in
@@ -67,6 +69,7 @@ def bake(scene, output, overrides, frames, profile, report_path, as_json, compre
     Examples:
       clothtool bake examples/skirt/scene.toml -o out/skirt.usdc --report out/skirt.json
       clothtool bake examples/skirt/scene.toml -o out/skirt.h5 --set solver.frequency=600 --frames 1:24 --profile
+      clothtool bake examples/skirt/scene.toml --dry-run
     """
     from clothtool.bake import BakeOptions
     from clothtool.bake import bake as run_bake
@@ -77,6 +80,15 @@ def bake(scene, output, overrides, frames, profile, report_path, as_json, compre
     from clothtool.report import check_report_path, format_profile_table, format_summary, write_report
     from clothtool.scene.scene import load_scene
 
+    overrides = list(overrides) + (["solver.force=true"] if force else [])
+    if dry_run:
+        from clothtool.bake import format_plan, plan
+
+        data = plan(load_scene(scene, list(overrides), frames, strict=strict))
+        emit_json(data) if as_json else click.echo(format_plan(data))
+        return
+    if output is None:
+        raise click.UsageError("Missing option '-o' / '--output' (or give --dry-run).")
     if output not in NULL_OUTPUTS:
         if Path(output).suffix.lower() not in supported_suffixes():
             raise FormatError(
@@ -95,6 +107,8 @@ def bake(scene, output, overrides, frames, profile, report_path, as_json, compre
         try:
             stats = run_bake(loaded, output, BakeOptions(percentiles=True, compression=compression, save_every=save_every, progress=update))
         except UnstableError as exc:
+            if getattr(exc, "stats", None) is None:  # refused before the first frame
+                raise
             failed = exc
             stats = exc.stats
     report = stats.to_dict()

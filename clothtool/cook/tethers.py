@@ -75,14 +75,17 @@ def build_tethers(
         edges: (e,2) constraint graph used for geodesic distances.
         pinned: bool (n,) pinned particles (at least one).
         mode: "geodesic" or "euclidean".
-        anchors_per_particle: k, the number of tether slots per particle.
+        anchors_per_particle: the number of tether slots per particle wanted; the result has
+            k = min(that, number of pinned islands) slots.
 
     Returns (anchor i32 (k*n,), length f32 (k*n,), fallback_count): the number of particles
     that have no path over the mesh to any pinned particle and so got straight-line tethers.
     """
     n = pos.shape[0]
-    k = int(anchors_per_particle)
     islands, island_count = pinned_islands(pinned, edges)
+    # more slots than islands would only add inactive slots, which still dilute the tether
+    # stiffness (NvCloth divides it by the slot count); so, as NvCloth, cap k at the islands
+    k = max(1, min(int(anchors_per_particle), island_count))
     best_dist = np.full((k, n), np.inf)
     best_anchor = np.tile(np.arange(n, dtype=np.int64), (k, 1))
     graph = _graph(pos, edges) if mode == "geodesic" else None

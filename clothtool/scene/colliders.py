@@ -28,7 +28,6 @@ KIND_KEYS = {
     "convex": ("planes", "box"),
     "mesh": ("mesh", "deform"),
 }
-DEFAULT_FRICTION = 0.5
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -302,7 +301,8 @@ def _collider(ctx, name: str, table: dict, tracks: dict[str, Track], fps: float)
             ctx.fail(where, f"key 'track' names '{table['track']}', but the scene has no [track.{table['track']}]")
         track = tracks[table["track"]]
     thickness = ctx.number(table, "thickness", where, default=0.0)
-    friction = ctx.number(table, "friction", where, default=DEFAULT_FRICTION)
+    # no friction given: the colliding cloth's material friction applies (NaN marks that)
+    friction = ctx.number(table, "friction", where) if "friction" in table else float("nan")
     if thickness < 0 or friction < 0:
         ctx.fail(where, "keys 'thickness' and 'friction' must not be negative")
     none3, none1, no_planes = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))

@@ -65,7 +65,7 @@ class OutputSettings:
 class WindSettings:
     velocity: np.ndarray  # (3,) constant velocity, scene units/s (added to the track's)
     track: Track | None  # its translation channel is a velocity in scene units/s
-    fluid_density: float = 1.0
+    fluid_density: float = 1.2
 
     def velocity_at(self, time: float) -> np.ndarray:
         velocity = self.velocity
@@ -286,7 +286,7 @@ def _wind(ctx: _Context, table: dict, tracks: dict[str, Track]) -> WindSettings:
             ctx.fail("wind", f"key 'track' names '{table['track']}', which is not a [track.*] of this scene")
         track = tracks[table["track"]]
     velocity = ctx.vector(table, "velocity", "wind", default=[0.0, 0.0, 0.0])
-    density = ctx.number(table, "fluid_density", "wind", default=1.0)
+    density = ctx.number(table, "fluid_density", "wind", default=1.2)
     if density < 0:
         ctx.fail("wind", "key 'fluid_density' must not be negative")
     return WindSettings(velocity, track, density)

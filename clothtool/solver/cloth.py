@@ -10,11 +10,12 @@ import numpy as np
 from clothtool.profile import StageProfiler
 from clothtool.solver.config import SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.frame import FrameHistory, FrameInertia, Pose
+from clothtool.solver.frame import FrameHistory, FrameInertia, Pose, extrapolated_path
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.logstiffness import damping_scale
 from clothtool.solver.model import ClothModel
 from clothtool.solver.pipeline import build_stages
+from clothtool.solver.sleep import SleepState
 
 
 @dataclasses.dataclass
@@ -74,24 +75,52 @@ class ClothSolver:
         self.state = ClothState.at_rest(model, np.dtype(config.precision))
         self.history: FrameHistory | None = None
         self.prev_h: float | None = None
+        self._teleport_path: Callable[[float], Pose] | None = None  # the frame's path during a teleport frame
+        self.sleep = SleepState()  # see clothtool.solver.sleep
+        self.neighbours: list[ClothSolver] = []  # cloths whose particles this one collides with
         self.stages = build_stages(self)
+
+    def set_neighbours(self, neighbours) -> None:
+        """The other cloths of the scene (cloth-cloth collision); rebuilds the stage list, so
+        call it before the first frame."""
+        self.neighbours = [n for n in neighbours if n is not self]
+        self.stages = build_stages(self)
+
+    @property
+    def asleep(self) -> bool:
+        """True while the cloth sleeps: its iterations run no stage."""
+        return self.sleep.asleep
 
     @property
     def stage_names(self) -> list[str]:
         return [stage.name for stage in self.stages]
 
     # ------------------------------------------------------------------ frame loop
-    def plan_frame(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+    def plan_frame(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
+        """Plan frame ``frame``, simulated from ``time`` to ``end_time`` (default time + frame_dt)."""
         iterations = max(1, int(frame_dt * self.config.frequency + 0.5))
         h = frame_dt / iterations
-        plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h)
+        plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h, end_time)
+        self._teleport_path = None
         if self.prev_h is None:
             self._start(plan)
         elif self.history is not None and frame in self.teleport_frames:
-            self.history.teleport(self.track(time))
+            self._teleport(plan)
+        self.sleep.begin_frame(self, plan)
         for stage in self.stages:
             stage.begin_frame(plan)
         return plan
+
+    def _teleport(self, plan: FramePlan) -> None:
+        """The track jumps during this frame (between its start and end poses). Sampling the
+        track inside the frame would interpolate across the jump and fling the particles, so
+        for this frame the cloth follows the track's new path instead, run backwards from the
+        frame's end with the motion the track has just after it, and the pose history is
+        rebased on that path: the frame keeps moving smoothly and the jump carries no velocity."""
+        end = plan.end
+        path = extrapolated_path(self.track(end), self.track(end + plan.h), plan.h)
+        self.history.rebase(path(plan.time - self.prev_h - end), path(plan.time - end))
+        self._teleport_path = lambda t: path(t - end)
 
     def _start(self, plan: FramePlan) -> None:
         """Initial previous positions so that the first step is exact for constant
@@ -117,8 +146,11 @@ class ClothSolver:
         scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, h) * ratio
         terms = None
         if self.history is not None:
-            target = self.track(plan.time + (index + 1) * h)
-            terms = self.history.advance(target, scale, self.gravity, h, self.inertia, self.config.stiffness_frequency)
+            sample = self._teleport_path or self.track
+            target = sample(plan.iteration_end(index))
+            terms = self.history.advance(
+                target, scale, self.gravity, h, self.inertia, self.config.stiffness_frequency, self.state.cur.dtype
+            )
         return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, scale, terms)
 
     def warm_up(self) -> None:
@@ -127,13 +159,15 @@ class ClothSolver:
             stage.warm_up()
 
     def iterate(self, iteration: Iteration) -> None:
+        if self.sleep.asleep:
+            return
         for stage in self.stages:
             with self.profiler.stage(stage.name):
                 stage.run(iteration)
 
-    def step(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+    def step(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
         """Simulate one frame (all its iterations) on its own."""
-        plan = self.plan_frame(frame, time, frame_dt)
+        plan = self.plan_frame(frame, time, frame_dt, end_time)
         for index in range(plan.iterations):
             self.iterate(self.iteration(plan, index))
         return plan

@@ -8,7 +8,8 @@ between the two across the frame's iterations (NvCloth's start/target scheme), s
 collider never teleports between iterations.
 
 All positions are world space, scene units. Each primitive carries its margin (collider
-thickness; the cloth's thickness is added by the stage) and friction coefficient.
+thickness; the cloth's thickness is added by the stage) and friction coefficient; a NaN
+friction means "the colliding cloth's material friction" (see ``friction_or``).
 """
 
 from __future__ import annotations
@@ -79,3 +80,10 @@ class ColliderArrays:
     @property
     def has_meshes(self) -> bool:
         return self.mesh_triangles.shape[0] > 0
+
+
+def friction_or(friction: np.ndarray, cloth_friction: float) -> np.ndarray:
+    """Per-primitive friction, with NaN (a collider that gives none) replaced by the cloth's
+    material friction: the one rule every integrator applies."""
+    friction = np.asarray(friction, np.float64)
+    return np.where(np.isnan(friction), cloth_friction, friction)

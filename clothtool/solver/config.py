@@ -112,6 +112,12 @@ class SolverConfig:
     sleep_threshold: m/s below which a cloth counts as still (0 disables sleeping).
     sleep_test_interval: seconds between sleep tests; sleep_after_count: still tests in a
         row before the cloth sleeps.
+    force: run the explicit integrator even beyond its stability limit (``--force``).
+    cg_tolerance, cg_max_iterations: the implicit integrator's conjugate-gradient solve.
+    compression_ratio: implicit: stiffness of a compressed axis relative to stretching.
+    strain_limit: implicit: edges are kept within this strain after collisions (0 = off).
+    cloth_collision: cloths of a scene keep their particles apart (each material's
+        self_collision_distance; a pair keeps the larger of the two).
     """
 
     frequency: float = 300.0
@@ -126,6 +132,12 @@ class SolverConfig:
     sleep_after_count: int = 10
     continuous_collision: bool = False
     self_collision: bool = False
+    force: bool = False
+    cg_tolerance: float = 1e-6
+    cg_max_iterations: int = 200
+    compression_ratio: float = 0.1
+    strain_limit: float = 0.1
+    cloth_collision: bool = False
 
     def check(self, where: str) -> None:
         if not self.frequency > 0:
@@ -138,6 +150,8 @@ class SolverConfig:
             raise PresetError(f"{where}: sleep_threshold >= 0, sleep_test_interval > 0 and sleep_after_count >= 1 are required")
         if self.parallel_threshold < 1:
             raise PresetError(f"{where}: key 'parallel_threshold' must be at least 1")
+        if not self.cg_tolerance > 0 or self.cg_max_iterations < 1:
+            raise PresetError(f"{where}: cg_tolerance must be positive and cg_max_iterations at least 1")
 
 
 def load_material(name_or_table: str | dict, where: str) -> Material:

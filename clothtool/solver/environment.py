@@ -3,20 +3,29 @@
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from clothtool.solver.colliders import ColliderArrays
+
+
+AIR_DENSITY = 1.2  # kg/m^3 at sea level and room temperature
 
 
 @dataclasses.dataclass(frozen=True)
 class Environment:
     """gravity: (3,) world acceleration in scene units/s^2; wind: time -> (3,) world wind
-    velocity in scene units/s (None = still air); fluid_density: NvCloth's fluid density,
-    which scales drag and lift (it compensates for the doubled triangle area)."""
+    velocity in scene units/s (None = still air); fluid_density: the air's density in kg/m^3
+    (drag and lift; see clothtool.solver.wind);
+    colliders: time in seconds -> world-space ColliderArrays (None = no colliders, and no
+    collide stage)."""
 
     gravity: np.ndarray
     wind: Callable[[float], np.ndarray] | None = None
-    fluid_density: float = 1.0
+    fluid_density: float = AIR_DENSITY
+    colliders: Callable[[float], "ColliderArrays"] | None = None
 
     @property
     def has_wind(self) -> bool:

@@ -22,7 +22,7 @@ STRETCH_LABELS = ("vertical", "horizontal")
 
 
 def constraint_compliance(model) -> np.ndarray:
-    """f64 (c,) XPBD compliance of each constraint in scene units (1 / stiffness).
+    """f64 (c,) XPBD compliance of each constraint (1 / stiffness, m/N).
 
     A stretch or shear constraint of rest length L between particles of lumped areas a, b
     models a strip of material of area A = (a + b) / 2: its spring constant is
@@ -49,10 +49,10 @@ def constraint_compliance(model) -> np.ndarray:
         else:
             k[span] = material.bend_modulus * area[span] / length_m[span] ** 4
     k *= model.constraint_stiffness
-    # energy 1/2 k C^2 with C in metres equals 1/2 (k s^2) C^2 with C in scene units (s m per unit)
-    k_scene = k * model.units_to_meters**2
+    # No unit conversion: with masses in kg and lengths in scene units (s metres each), forces
+    # are in kg units/s^2 = N/s and Hooke's law F = k C keeps the same k (N/m) in both units.
     with np.errstate(divide="ignore"):
-        return np.where(k_scene > 0, 1.0 / k_scene, np.inf)
+        return np.where(k > 0, 1.0 / k, np.inf)
 
 
 class FabricStage(Stage):

@@ -50,6 +50,21 @@ class Pose:
         return (points - self.translation) @ self.rotation
 
 
+def extrapolated_path(pose: Pose, later: Pose, dt: float):
+    """time offset -> Pose moving from ``pose`` (offset 0) with the constant linear and angular
+    velocity that takes it to ``later`` in ``dt`` seconds (negative offsets go back in time)."""
+    from scipy.spatial.transform import Rotation
+
+    spin = Rotation.from_matrix(later.rotation @ pose.rotation.T).as_rotvec() / dt
+    velocity = (later.translation - pose.translation) / dt
+
+    def at(offset: float) -> Pose:
+        turn = Rotation.from_rotvec(spin * offset).as_matrix()
+        return Pose(turn @ pose.rotation, pose.translation + velocity * offset)
+
+    return at
+
+
 @dataclasses.dataclass(frozen=True)
 class FrameInertia:
     linear_inertia: float = 1.0
@@ -77,15 +92,23 @@ class FrameHistory:
         self.before = pose  # P_{n-1}
         self.now = pose  # P_n
 
-    def teleport(self, pose: Pose) -> None:
-        """Jump to ``pose`` without the jump turning into velocity."""
-        self.before = pose
-        self.now = pose
+    def rebase(self, before: Pose, now: Pose) -> None:
+        """Replace the pose history (a teleport: the frame continues from a new path)."""
+        self.before = before
+        self.now = now
 
     def advance(
-        self, target: Pose, scale: float, gravity: np.ndarray, h: float, inertia: FrameInertia, stiffness_frequency: float
+        self,
+        target: Pose,
+        scale: float,
+        gravity: np.ndarray,
+        h: float,
+        inertia: FrameInertia,
+        stiffness_frequency: float,
+        dtype=np.float32,
     ) -> IterationTerms:
-        """Terms for the iteration that ends at ``target``; then shift the history."""
+        """Terms for the iteration that ends at ``target``, in the particle state's ``dtype``;
+        then shift the history."""
         r_prev, r_now, r_next = self.before.rotation, self.now.rotation, target.rotation
         t_prev, t_now, t_next = self.before.translation, self.now.translation, target.translation
         inv = r_next.T
@@ -98,9 +121,9 @@ class FrameHistory:
         k = inv @ (i_ang * (scale * d_n - d_n1) - d_ang * d_n1)
         b = inv @ (i_lin * (scale * dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)
         terms = IterationTerms(
-            m_cur=(scale * q + k).astype(np.float32),
-            m_prev=(-scale * q).astype(np.float32),
-            bias=b.astype(np.float32),
+            m_cur=(scale * q + k).astype(dtype),
+            m_prev=(-scale * q).astype(dtype),
+            bias=b.astype(dtype),
             motion_matrix=(inv @ d_n1).astype(np.float32),
             motion_offset=(inv @ dt_n1).astype(np.float32),
             to_local=inv,

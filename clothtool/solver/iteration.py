@@ -17,6 +17,19 @@ class FramePlan:
     iterations: int
     h: float  # iteration length in seconds
     exponent: float  # stiffness_frequency * h: stiffness-frequency steps per iteration
+    end_time: float | None = None  # seconds at the frame's end, exactly (default time + frame_dt)
+
+    @property
+    def end(self) -> float:
+        """Seconds at the frame's end."""
+        return self.end_time if self.end_time is not None else self.time + self.frame_dt
+
+    def iteration_end(self, index: int) -> float:
+        """Seconds at the end of iteration ``index``; the last one ends exactly at end_time,
+        so a track key at the frame's time is sampled at the key, not a rounding error past it."""
+        if index + 1 == self.iterations:
+            return self.end
+        return self.time + self.frame_dt * (index + 1) / self.iterations
 
 
 @dataclasses.dataclass(frozen=True)

@@ -10,10 +10,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from clothtool.solver.collide import CollideStage
 from clothtool.solver.fabric import FabricStage
 from clothtool.solver.integrate import IntegrateStage
 from clothtool.solver.motion import MotionStage
+from clothtool.solver.selfcollide import SelfCollideStage, needs_self_collide
 from clothtool.solver.separation import SeparationStage
+from clothtool.solver.sleep import SleepStage
 from clothtool.solver.stage import Stage
 from clothtool.solver.tethers import TetherStage
 from clothtool.solver.wind import WindStage
@@ -40,4 +43,10 @@ def build_stages(solver: "ClothSolver") -> list[Stage]:
         stages.append(FabricStage(solver))
     if model.backstop_centers is not None:
         stages.append(SeparationStage(solver))
+    if solver.environment.colliders is not None:
+        stages.append(CollideStage(solver))
+    if needs_self_collide(solver):  # self-collision, or cloth-cloth collision with neighbours
+        stages.append(SelfCollideStage(solver))
+    if solver.config.sleep_threshold > 0:
+        stages.append(SleepStage(solver))
     return stages

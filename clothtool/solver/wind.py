@@ -1,4 +1,14 @@
-"""Stage: wind, drag and lift per triangle (the seed's applyWind)."""
+"""Stage: wind, drag and lift per triangle (the seed's applyWind).
+
+The kernel keeps the seed's formula; this stage chooses its parameters so that the result is
+physical with the solver's real particle masses (1/kg). The seed's impulse moves a particle
+by 2 c |cos| |d|^2 A rho_n w / h, and the physical displacement F h^2 / m of the drag force
+F = 1/2 rho c A v^2 |cos| (v = |d| / h, lengths s metres per scene unit) is equal to it when
+rho_n = rho s^3 h / 4. So ``fluid_density`` is the air's density in kg/m^3 and the material's
+drag and lift coefficients are ordinary aerodynamic coefficients. (NvCloth, with user-chosen
+inverse masses, instead treats them as tuning values and converts the coefficients in log
+space; with physical masses that made drag about a hundred times too strong.)
+"""
 
 from __future__ import annotations
 
@@ -6,7 +16,6 @@ import numpy as np
 
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.wind import apply_wind
-from clothtool.solver.logstiffness import iteration_stiffness
 from clothtool.solver.stage import Stage
 
 _NO_MOTION = (np.zeros((3, 3), np.float32), np.zeros(3, np.float32))
@@ -18,12 +27,11 @@ class WindStage(Stage):
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver
         material = solver.model.material
-        f = solver.config.stiffness_frequency
-        # drag and lift coefficients are per stiffness-frequency step, like stiffness (NvCloth)
-        self.drag = iteration_stiffness(material.drag_coefficient, f, plan.h)
-        self.lift = iteration_stiffness(material.lift_coefficient, f, plan.h)
+        self.drag = np.float32(material.drag_coefficient)
+        self.lift = np.float32(material.lift_coefficient)
         self.inv_dt = np.float32(1.0 / plan.h)
-        self.density = np.float32(solver.environment.fluid_density)
+        s = solver.model.units_to_meters
+        self.density = np.float32(solver.environment.fluid_density * s**3 * plan.h / 4.0)
         self.wind_world = solver.environment.wind_at(plan.time) * plan.h
 
     def warm_up(self) -> None:

@@ -6,7 +6,8 @@ triplets and phases). For a kernel module ``x`` there must be
 
 * ``tests/reference/x.py`` with a plain function of the same name for each kernel (no numba),
   private helpers included;
-* ``tests/kernels/test_x.py`` importing each public kernel from its module and the reference
+* a test module (``tests/kernels/test_x.py``, or any ``tests/**/test_*.py``, e.g. next to
+  an integrator's other tests) importing each public kernel from its module and the reference
   module, to compare the two. Private helpers (``inline="always"`` pieces of public kernels)
   are compared through the kernels that use them, unless a module has no public kernel.
 """
@@ -99,13 +100,13 @@ def test_every_kernel_has_a_reference_and_a_test(module_name):
         assert callable(function), f"{reference_path.relative_to(REPO)} has no reference function {name}()"
         assert function.__module__ == reference.__name__ and not isinstance(function, CPUDispatcher)
 
-    test_path = TESTS / f"test_{stem}.py"
-    assert test_path.exists(), f"{module_name}: write {test_path.relative_to(REPO)} comparing each kernel with its reference"
-    imported = _imports(test_path)
     public = [name for name in kernels if not name.startswith("_")] or list(kernels)
-    missing = [name for name in public if f"{module_name}.{name}" not in imported]
-    assert not missing, f"{test_path.relative_to(REPO)} does not import {missing} from {module_name}"
-    assert f"tests.reference.{stem}" in imported, f"{test_path.relative_to(REPO)} does not import tests.reference.{stem}"
+    wanted = {f"{module_name}.{name}" for name in public} | {f"tests.reference.{stem}"}
+    comparing = [path for path in REPO.joinpath("tests").rglob("test_*.py") if wanted <= _imports(path)]
+    assert comparing, (
+        f"{module_name}: no test imports all of {sorted(wanted)}; write {(TESTS / f'test_{stem}.py').relative_to(REPO)} "
+        "comparing each kernel with its reference"
+    )
 
 
 def test_every_reference_module_belongs_to_a_kernel_module():

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-FLT_EPSILON = float(np.finfo(np.float32).eps)
+# the kernels guard coincident particles with a tiny epsilon (see kernels/constraints.py)
+DISTANCE_EPSILON = 1e-30
 
 
 def constrain_motion(centers, radii, scale, bias, stiffness, cur):
@@ -18,7 +19,7 @@ def constrain_motion(centers, radii, scale, bias, stiffness, cur):
     Returns cur as a float64 copy."""
     cur = np.array(cur, np.float64)
     delta = np.asarray(centers, np.float64)[:, :3] - cur[:, :3]
-    sqr_length = FLT_EPSILON + np.einsum("ij,ij->i", delta, delta)
+    sqr_length = DISTANCE_EPSILON + np.einsum("ij,ij->i", delta, delta)
     radius = np.maximum(0.0, np.asarray(radii, np.float64) * float(scale) + float(bias))
     slack = 1.0 - radius / np.sqrt(sqr_length)
     active = slack > 0.0
@@ -34,7 +35,7 @@ def constrain_separation(centers, radii, cur):
     cur = np.array(cur, np.float64)
     d = np.asarray(centers, np.float64)[:, :3] - cur[:, :3]
     length = np.linalg.norm(d, axis=1)
-    inside = length > 0.0
+    inside = (length > 0.0) & (cur[:, 3] != 0.0)  # immovable particles (w = 0) stay
     slack = np.zeros_like(length)
     slack[inside] = 1.0 - np.asarray(radii, np.float64)[inside] / length[inside]
     push = inside & (slack < 0.0)
@@ -59,7 +60,7 @@ def constrain_tethers(anchors, lengths, scale, stiffness, cur):
     anchor = np.asarray(anchors, np.int64).reshape(k, n)
     length = np.asarray(lengths, np.float64).reshape(k, n)
     delta = cur[anchor, :3] - cur[None, :, :3]  # (k, n, 3)
-    slack = 1.0 - length * float(scale) / (np.linalg.norm(delta, axis=2) + FLT_EPSILON)
+    slack = 1.0 - length * float(scale) / (np.linalg.norm(delta, axis=2) + DISTANCE_EPSILON)
     offset = (delta * np.maximum(slack, 0.0)[:, :, None]).sum(axis=0)
     cur[:, :3] += offset * float(stiffness)
     return cur

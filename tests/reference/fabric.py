@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 FLT_EPSILON = float(np.finfo(np.float32).eps)
+DISTANCE_EPSILON = 1e-30  # the kernels' guard for coincident particles
 
 
 def _solve_set(pairs, rest, stiffness, k, m, lo, hi, cur, alpha_tilde=0.0):
@@ -35,8 +36,8 @@ def _solve_set(pairs, rest, stiffness, k, m, lo, hi, cur, alpha_tilde=0.0):
     if np.unique(moving).size != moving.size:
         raise ValueError("a set moves one particle twice: it is not conflict-free")
     h = cur[b, :3] - cur[a, :3]
-    e2 = FLT_EPSILON + np.einsum("ij,ij->i", h, h)
-    er = np.where(rest > FLT_EPSILON, 1.0 - rest / np.sqrt(e2), 0.0)
+    e2 = DISTANCE_EPSILON + np.einsum("ij,ij->i", h, h)
+    er = np.where(rest > 0.0, 1.0 - rest / np.sqrt(e2), 0.0)
     if m != 0.0:
         er = er - m * np.maximum(lo, np.minimum(er, hi))
     ex = er * k * stiffness / (FLT_EPSILON + wa + wb + alpha_tilde)

@@ -12,7 +12,8 @@ the unnormalised normal n = (c2 - c0) x (c1 - c0), a = |n| (twice the area), and
 
 unless |d|^2 is below FLT_EPSILON (the seed's guard against float division noise; its table
 prints the comparison the wrong way round, its prose says "if |d| is too small"), and each
-corner moves by -i times its inverse mass (cur.w).
+corner moves by -i times its inverse mass (cur.w) — scaled down, where it would, so that the
+centre moves by at most |d| (air can at most stop the triangle's relative motion).
 
 The loop is deliberately sequential: a triangle's centre and normal are read from positions
 that the triangles before it have already pushed, so the result depends on the order.
@@ -34,7 +35,7 @@ def triangle_impulse(c, p, frame_matrix, frame_offset, air_offset, inv_dt, drag,
     double_area = np.linalg.norm(n)
     length_sqr = float(d @ d)
     if length_sqr < FLT_EPSILON or double_area == 0.0:
-        return np.zeros(3)
+        return np.zeros(3), 0.0
     n_hat = n / double_area
     length = np.sqrt(length_sqr)
     cos_theta = float(n_hat @ d) / length
@@ -42,7 +43,7 @@ def triangle_impulse(c, p, frame_matrix, frame_offset, air_offset, inv_dt, drag,
     lift_dir = np.cross(np.cross(d, n_hat), d) / length
     i_lift = lift * cos_theta * sin_theta * lift_dir * length * inv_dt
     i_drag = drag * abs(cos_theta) * d * length * inv_dt
-    return (i_lift + i_drag) * density * double_area
+    return (i_lift + i_drag) * density * double_area, length
 
 
 def apply_wind(triangles, frame_matrix, frame_offset, air_offset, inv_dt, drag, lift, density, cur, prev):
@@ -54,7 +55,10 @@ def apply_wind(triangles, frame_matrix, frame_offset, air_offset, inv_dt, drag, 
         np.asarray(air_offset, np.float64), float(inv_dt), float(drag), float(lift), float(density),
     )
     for tri in np.asarray(triangles):
-        impulse = triangle_impulse(cur[tri, :3], prev[tri, :3], *args)
+        impulse, length = triangle_impulse(cur[tri, :3], prev[tri, :3], *args)
+        shift = np.linalg.norm(impulse) * cur[tri, 3].mean()
+        if shift > length:
+            impulse = impulse * (length / shift)
         for j in tri:
             cur[j, :3] -= impulse * cur[j, 3]
     return cur

@@ -35,6 +35,8 @@ def test_tether_properties(cols, rows, pins, mode, k):
         [[a, b] for a in range(n) for b in range(n) if a < b and np.linalg.norm(mesh.vertex_pos[a] - mesh.vertex_pos[b]) < 0.1 * 1.5]
     )
     anchor, length, fallbacks = build_tethers(mesh.vertex_pos, edges, pin_file_free, mode, k)
+    _, islands = pinned_islands(pin_file_free, edges)
+    k = min(k, islands)  # slots beyond the number of pinned islands are not made
     anchor, length = anchor.reshape(k, n), length.reshape(k, n)
     assert fallbacks == 0
     owner = np.broadcast_to(np.arange(n), anchor.shape)
@@ -119,8 +121,9 @@ def test_two_anchors_per_particle_reach_both_pinned_corners(tmp_path):
     one_island = cook_fabric(
         grid(5, 5, 0.1), CookOptions(pin_box=(-1, -0.01, -1, 1, 1, 1), tether_anchors=2, tethers="euclidean")
     ).fabric
-    anchors, _ = tether_table(one_island)
-    assert np.all(anchors[1] == np.arange(25))  # the top row is one island: slot 2 stays inactive
+    # the top row is one island: a second slot would stay inactive and only dilute the
+    # stiffness, so there is one slot
+    assert one_island.tethers_per_particle == 1
 
     pin_file = tmp_path / "corners.txt"
     pin_file.write_text("0, 4  # the two top corners\n")

@@ -10,6 +10,10 @@ For each triangle, d is the motion of its centre over the iteration relative to 
 and each particle moves by -i times its inverse mass. Below |d|^2 < FLT_EPSILON the impulse
 is zero (float division is unreliable there), which the seed notes makes slow cloth feel
 less drag at high solver frequencies.
+
+One guard beyond the seed: the impulse is scaled down so that it moves the triangle's centre
+by at most |d|. Air can at most stop a triangle's motion relative to it; the explicit
+impulse would otherwise overshoot and grow without bound on light cloth in fast air.
 """
 
 from __future__ import annotations
@@ -76,6 +80,12 @@ def apply_wind(triangles, frame_matrix, frame_offset, air_offset, inv_dt, drag, 
         ix = (lift_scale * lx + drag_scale * d0) * scale
         iy = (lift_scale * ly + drag_scale * d1) * scale
         iz = (lift_scale * lz + drag_scale * d2) * scale
+        shift = np.sqrt(ix * ix + iy * iy + iz * iz) * (cur[i0, 3] + cur[i1, 3] + cur[i2, 3]) * third
+        if shift > length:
+            limit = length / shift
+            ix *= limit
+            iy *= limit
+            iz *= limit
         for i in (i0, i1, i2):
             w = cur[i, 3]
             cur[i, 0] -= ix * w

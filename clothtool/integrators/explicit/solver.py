@@ -1,0 +1,268 @@
+"""ExplicitClothSolver: the classic mass-spring cloth (the talk), symplectic Euler with substeps.
+
+Points with mass, position, velocity and force; springs along the fabric's constraints
+(stretch, shear and bend phases) with stiffness from the material's moduli and damping along
+the spring (``springs``); gravity; wind per triangle along its normal, proportional to its
+area; collisions with the scene's colliders after the position update. Each substep of
+length h = frame_dt / round(frame_dt * solver.frequency):
+
+    forces     f = sum of spring forces (+ damping)
+    wind       f += per-triangle wind / air drag (when the material has a drag coefficient)
+    integrate  v += h (g + f / m) ;  x += h v              (pinned particles never move)
+    collide    project out of the colliders, inelastic normal velocity, Coulomb friction
+
+The solver drives like ``clothtool.solver.cloth.ClothSolver`` (same constructor, frame plan,
+iterations and output methods), so the bake can run either. It simulates in world space and
+refuses a tracked (local-space) cloth. It refuses, too, a substep longer than the stability
+limit (``stability``) unless ``config.force`` is set. Not modelled: tethers, motion and
+separation constraints, self- and cloth-cloth collision, sleeping, lift.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from clothtool.errors import SceneError, UnstableError
+from clothtool.integrators.explicit.collider_motion import ColliderMotion, collider_sampler
+from clothtool.integrators.explicit.kernels.explicit_collide import (
+    collide_capsules,
+    collide_convexes,
+    collide_spheres,
+    collide_triangles,
+)
+from clothtool.integrators.explicit.kernels.explicit_integrate import symplectic_euler
+from clothtool.integrators.explicit.kernels.explicit_springs import spring_forces, spring_forces_sets
+from clothtool.integrators.explicit.kernels.explicit_wind import wind_forces
+from clothtool.integrators.explicit.springs import spring_damping, spring_stiffness, wind_coefficient
+from clothtool.integrators.explicit.stability import stability_report
+from clothtool.solver.cloth import ClothState
+from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.sleep import SleepState
+
+
+def substeps(frame_dt: float, frequency: float) -> int:
+    """Substeps per frame: frame_dt * frequency rounded (half up, as ClothSolver), at least 1."""
+    return max(1, int(frame_dt * frequency + 0.5))
+
+
+class ExplicitClothSolver:
+    """Simulates one cloth frame by frame with explicit mass-spring dynamics.
+
+    Args:
+        model: the cloth's static data (world space: the cloth follows no track).
+        config: solver settings (``frequency`` sets the substep; ``force`` skips the
+            stability check; ``precision`` the state's dtype).
+        environment: gravity, wind, fluid density, colliders.
+        profiler: accumulates time per stage.
+        track: must be None (raises SceneError otherwise).
+        teleport_frames: accepted for interface compatibility (only meaningful with a track).
+        initial_velocity: (3,) world velocity of the free particles at the start.
+        frame_dt: when given, the stability check runs here already (else in plan_frame).
+    """
+
+    def __init__(
+        self,
+        model,
+        config,
+        environment,
+        profiler,
+        track=None,
+        teleport_frames: frozenset[int] = frozenset(),
+        initial_velocity=(0.0, 0.0, 0.0),
+        frame_dt: float | None = None,
+    ):
+        if track is not None:
+            raise SceneError(
+                f"cloth '{model.name}': the explicit integrator simulates in world space; "
+                "remove the cloth's track or use solver.integrator = \"pbd\""
+            )
+        self.model = model
+        self.config = config
+        self.environment = environment
+        self.profiler = profiler
+        self.track = None
+        self.history = None
+        self.teleport_frames = teleport_frames
+        self.initial_velocity = np.asarray(initial_velocity, np.float64)
+        self.gravity = np.asarray(environment.gravity, np.float64)
+        self.gravity_state = self.gravity.astype(config.precision)
+        self.neighbours: list = []
+        self.sleep = SleepState()  # never falls asleep; read by neighbours' stages
+        dtype = np.dtype(config.precision)
+        self.dtype = dtype
+        self.state = ClothState.at_rest(model, dtype)
+        n = model.particle_count
+        self.velocity = np.zeros((n, 3), dtype)
+        self.force = np.zeros((n, 3), dtype)
+
+        stiffness = spring_stiffness(model)
+        self.spring_stiffness = stiffness.astype(dtype)
+        self.spring_damping = spring_damping(model, stiffness).astype(dtype)
+        self.spring_rest = model.constraint_rest_length.astype(dtype)
+        self.set_offsets = np.ascontiguousarray(model.set_offsets, np.int32)
+        set_sizes = np.diff(model.set_offsets)
+        # thread start-up costs more than it saves on small sets (as for the fabric stage)
+        self.parallel = bool(set_sizes.size and set_sizes.max() >= config.parallel_threshold)
+
+        material = model.material
+        density = float(getattr(environment, "fluid_density", 1.0))
+        self.has_wind = material.drag_coefficient > 0 and density > 0 and model.triangles.shape[0] > 0
+        self.wind_coefficient = dtype.type(wind_coefficient(model, density) if self.has_wind else 0.0)
+        sampler = collider_sampler(environment)
+        self.colliders = None
+        if sampler is not None:
+            thickness = material.thickness / model.units_to_meters
+            self.colliders = ColliderMotion(sampler, model.name, thickness, material.friction, dtype)
+
+        self.stage_names = ["forces"] + (["wind"] if self.has_wind else []) + ["integrate"]
+        self.stage_names += ["collide"] if self.colliders is not None else []
+        self.stability = stability_report(model, environment if self.has_wind else None)
+        self._plan: FramePlan | None = None
+        self._started = False
+        if frame_dt is not None:
+            self.check_step(frame_dt / substeps(frame_dt, config.frequency), frame_dt)
+
+    # ------------------------------------------------------------------ interface glue
+    @property
+    def asleep(self) -> bool:
+        return False
+
+    def set_neighbours(self, neighbours) -> None:
+        """Recorded for the other cloths' benefit; the explicit integrator does not collide
+        with other cloths."""
+        self.neighbours = [n for n in neighbours if n is not self]
+
+    # ------------------------------------------------------------------ stability
+    def check_step(self, h: float, frame_dt: float | None = None) -> None:
+        """Raise UnstableError when the substep h exceeds the stability limit (times the
+        accepted factor), unless ``config.force`` is set."""
+        h_max = self.stability["h_max_s"]
+        if h <= self.stability["factor"] * h_max or getattr(self.config, "force", False):
+            return
+        frequency = 1.0 / h_max
+        if frame_dt is not None:  # the lowest frequency whose rounded substep count is enough
+            frequency = math.ceil(frame_dt / h_max) / frame_dt
+        raise UnstableError(
+            f"cloth '{self.model.name}': explicit integration is unstable at h = {h:.3g} s: the stiffest spring "
+            f"needs h <= {h_max:.3g} s (frequency >= {frequency:.6g} Hz); raise solver.frequency or pass --force"
+        )
+
+    # ------------------------------------------------------------------ frame loop
+    def plan_frame(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+        iterations = substeps(frame_dt, self.config.frequency)
+        h = frame_dt / iterations
+        self.check_step(h, frame_dt)
+        plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h)
+        if not self._started:
+            self._start(h)
+        if self.colliders is not None:
+            self.colliders.begin_frame(time, frame_dt)
+        self._plan = plan
+        return plan
+
+    def _start(self, h: float) -> None:
+        """Free particles start with the initial velocity; prev = cur - v h."""
+        free = self.model.inv_mass > 0
+        self.velocity[free] = self.initial_velocity.astype(self.dtype)
+        state = self.state
+        state.prev[free, :3] = state.cur[free, :3] - self.velocity[free] * self.dtype.type(h)
+        self._started = True
+
+    def iteration(self, plan: FramePlan, index: int) -> Iteration:
+        self._plan = plan
+        return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, 1.0, None)
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) every kernel, on zero-length views."""
+        state, model, dtype = self.state, self.model, self.dtype
+        cur, prev, velocity, force = state.cur[:0], state.prev[:0], self.velocity[:0], self.force[:0]
+        zero = dtype.type(0.0)
+        springs = (model.constraint_indices[:0], self.spring_rest[:0], self.spring_stiffness[:0], self.spring_damping[:0])
+        if self.parallel:
+            spring_forces_sets(*springs, self.set_offsets[:1], cur, velocity, force)
+        else:
+            spring_forces(*springs, cur, velocity, force)
+        if self.has_wind:
+            wind_forces(model.triangles[:0], np.zeros(3, dtype), zero, cur, velocity, force)
+        symplectic_euler(np.zeros(3, dtype), zero, force, cur, prev, velocity)
+        if self.colliders is not None:
+            v4, v3, v1 = np.zeros((0, 4), dtype), np.zeros((0, 3), dtype), np.zeros(0, dtype)
+            no_offsets = np.zeros(1, np.int32)
+            state = (zero, cur, prev, velocity)
+            collide_spheres(v3, v1, v3, v1, np.zeros(0, np.int32), v1, v1, *state)
+            collide_capsules(v3, v1, v3, v1, np.zeros((0, 2), np.int32), v1, v1, *state)
+            collide_convexes(v4, v4, no_offsets, v1, v1, *state)
+            collide_triangles(v3, v3, np.zeros((0, 3), np.int32), no_offsets, v1, v1, *state)
+
+    def iterate(self, iteration: Iteration) -> None:
+        """One symplectic Euler substep of length plan.h."""
+        plan = self._plan
+        h = self.dtype.type(plan.h)
+        with self.profiler.stage("forces"):
+            self._forces()
+        if self.has_wind:
+            with self.profiler.stage("wind"):
+                self._wind(plan.time + iteration.index * plan.h)
+        with self.profiler.stage("integrate"):
+            symplectic_euler(self.gravity_state, h, self.force, self.state.cur, self.state.prev, self.velocity)
+        if self.colliders is not None:
+            with self.profiler.stage("collide"):
+                self._collide(iteration.alpha1, h)
+
+    def step(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+        """Simulate one frame (all its substeps) on its own."""
+        plan = self.plan_frame(frame, time, frame_dt)
+        for index in range(plan.iterations):
+            self.iterate(self.iteration(plan, index))
+        return plan
+
+    # ------------------------------------------------------------------ stages
+    def _forces(self) -> None:
+        self.force.fill(0.0)
+        springs = (self.model.constraint_indices, self.spring_rest, self.spring_stiffness, self.spring_damping)
+        if self.parallel:
+            spring_forces_sets(*springs, self.set_offsets, self.state.cur, self.velocity, self.force)
+        else:
+            spring_forces(*springs, self.state.cur, self.velocity, self.force)
+
+    def _wind(self, time: float) -> None:
+        air = self.environment.wind_at(time).astype(self.dtype)
+        wind_forces(self.model.triangles, air, self.wind_coefficient, self.state.cur, self.velocity, self.force)
+
+    def _collide(self, alpha: float, h) -> None:
+        c = self.colliders
+        if not c.active:
+            return
+        c.at(alpha)
+        cur, prev, velocity = self.state.cur, self.state.prev, self.velocity
+        if c.spheres.size:
+            collide_spheres(
+                c.center.value, c.radius.value, c.center.rate, c.radius.rate, c.spheres, c.sphere_margin,
+                c.sphere_friction, h, cur, prev, velocity,
+            )
+        if c.capsules.size:
+            collide_capsules(
+                c.center.value, c.radius.value, c.center.rate, c.radius.rate, c.capsules, c.capsule_margin,
+                c.capsule_friction, h, cur, prev, velocity,
+            )
+        if c.plane_offsets.size > 1:
+            collide_convexes(
+                c.plane.value, c.plane.rate, c.plane_offsets, c.convex_margin, c.convex_friction, h, cur, prev, velocity
+            )
+        if c.triangles.size:
+            collide_triangles(
+                c.points.value, c.points.rate, c.triangles, c.mesh_offsets, c.mesh_margin, c.mesh_friction, h,
+                cur, prev, velocity,
+            )
+
+    # ------------------------------------------------------------------ output
+    def world_points(self) -> np.ndarray:
+        """(n,3) current positions in world space (scene units), in the state's precision."""
+        return np.ascontiguousarray(self.state.cur[:, :3])
+
+    def world_velocities(self, h: float) -> np.ndarray:
+        """f32 (n,3) world velocities in scene units per second: the integrator's own velocity
+        (equal to (cur - prev) / h up to rounding)."""
+        return self.velocity.astype(np.float32)

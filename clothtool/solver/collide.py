@@ -1,0 +1,308 @@
+"""Stage: collision with the scene's colliders (NvCloth's collideParticles).
+
+Once per frame the stage samples the environment's world-space colliders at the frame's
+start and end, copies them into flat arrays it reuses from frame to frame, and grids the
+triangle-mesh colliders. Each iteration it interpolates the colliders linearly to the
+iteration's start (alpha0) and end (alpha1), moves them into the cloth's frame when the cloth
+simulates in a moving frame (start with the frame's pose at the iteration's start,
+``history.before``, end with ``history.now``), then runs the collide kernels over the
+particles and the fabric's virtual particles. Margins are each collider's thickness plus the
+cloth material's thickness (metres, converted to scene units).
+
+See clothtool.solver.kernels.collide for what a contact does (push-out averaging, friction,
+collision mass scale, continuous collision) and clothtool.solver.kernels.collide_mesh for how
+mesh sides are decided. Nothing here allocates per iteration: arrays are sized in
+``begin_frame`` and only grow when the colliders do.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from clothtool.errors import SceneError
+from clothtool.solver.colliders import ColliderArrays, friction_or
+from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.kernels.collide import collide_particles, collide_particles_parallel, collide_virtual
+from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
+from clothtool.solver.kernels.collide_pose import (
+    convex_shift,
+    convex_translation,
+    pack_capsules,
+    pack_spheres,
+    pack_triangles,
+    pose_planes,
+    pose_points,
+    pose_spheres,
+)
+from clothtool.solver.stage import Stage
+
+# The mesh grid has at most this many cells per triangle.
+CELLS_PER_TRIANGLE = 16
+I32 = np.int32
+
+
+def _reuse(array: np.ndarray, shape: tuple) -> np.ndarray:
+    """``array`` when it already has ``shape``, else a new zeroed array of its dtype."""
+    if array.shape == tuple(shape):
+        return array
+    return np.zeros(shape, array.dtype)
+
+
+def _at_least(array: np.ndarray, size: int) -> np.ndarray:
+    """A 1-d array of at least ``size`` entries: ``array`` itself unless it must grow."""
+    if array.shape[0] >= size:
+        return array
+    return np.zeros(max(size, 2 * array.shape[0]), array.dtype)
+
+
+class CollideStage(Stage):
+    """Collision with ``solver.environment.colliders`` (see the module docstring).
+
+    After ``run`` the arrays the kernels saw stay readable: ``sphere_start``/``sphere_end``
+    (s,4) every sphere (capsule ends included) at the iteration's start and end,
+    ``plane_end`` (p,4), ``mesh_start``/``mesh_end`` (m,3), in the cloth's frame, radii and
+    offsets without margins; and the packed records ``sphere_data``, ``capsule_data``,
+    ``convex_data`` and ``triangle_data``.
+    """
+
+    name = "collide"
+
+    def __init__(self, solver):
+        super().__init__(solver)
+        model = solver.model
+        material = model.material
+        # collider arrays follow the particle state's precision (float32, or float64 references)
+        real = self.real = solver.state.cur.dtype.type
+        self.thickness = float(material.thickness) / float(model.units_to_meters)
+        self.friction = float(material.friction)  # for colliders that give no friction of their own
+        self.mass_scale = real(material.collision_mass_scale)
+        self.meters_per_unit = real(model.units_to_meters)
+        self.continuous = bool(solver.config.continuous_collision)
+        # thread start-up costs more than it saves on small cloths; results are identical
+        big = model.particle_count >= solver.config.parallel_threshold and numba.config.NUMBA_NUM_THREADS > 1
+        self.kernel = collide_particles_parallel if big else collide_particles
+        fabric = model.fabric
+        self.virtual = np.ascontiguousarray(fabric.virtual_particles, I32)
+        self.virtual_weights = np.ascontiguousarray(fabric.virtual_particle_weights, real)
+        self.frame = np.zeros((8, 3))  # the cloth frame's poses at the iteration's start and end
+        self.frame[0:3] = self.frame[4:7] = np.eye(3)
+        # world-space samples at the frame's start and end, and per-primitive parameters
+        self.sphere_world = (np.zeros((0, 4), real), np.zeros((0, 4), real))
+        self.sphere_colliders = np.zeros(0, I32)
+        self.sphere_params = np.zeros((0, 2), real)  # margin, friction
+        self.capsule_index = np.zeros((0, 2), I32)
+        self.capsule_params = np.zeros((0, 2), real)
+        self.plane_world = (np.zeros((0, 4), real), np.zeros((0, 4), real))
+        self.convex_offsets = np.zeros(1, I32)
+        self.convex_translation = np.zeros((0, 3), real)  # world translation over the frame
+        self.mesh_world = (np.zeros((0, 3), real), np.zeros((0, 3), real))
+        self.triangles = np.zeros((0, 3), I32)
+        self.triangle_params = np.zeros((0, 2), real)
+        # posed for the current iteration (local frame)
+        self.sphere_start = np.zeros((0, 4), real)
+        self.sphere_end = np.zeros((0, 4), real)
+        self.plane_end = np.zeros((0, 4), real)
+        self.mesh_start = np.zeros((0, 3), real)
+        self.mesh_end = np.zeros((0, 3), real)
+        self.sphere_data = np.zeros((0, 9), real)
+        self.capsule_data = np.zeros((0, 17), real)
+        self.convex_data = np.zeros((0, 5), real)
+        self.triangle_data = np.zeros((0, 32), real)
+        # the mesh grid (world space)
+        self.bounds = np.zeros((0, 6), real)
+        self.cell_ranges = np.zeros((0, 6), I32)
+        self.grid = np.array([0, 0, 0, 1, 1, 1, 1], real)
+        self.cell_start = np.zeros(2, I32)
+        self.cell_items = np.zeros(1, I32)
+        self.mesh_still = False
+        self._mesh_packed = False
+        self._frame_serial = 0
+        self._end_key: tuple | None = None
+        self._end_pose = None
+
+    # ------------------------------------------------------------------ per frame
+    def begin_frame(self, plan: FramePlan) -> None:
+        colliders = self.solver.environment.colliders
+        start = colliders(plan.time)
+        end = colliders(plan.end)
+        self._check_same_layout(start, end, plan)
+        self._copy_spheres(start, end)
+        self._copy_convexes(start, end)
+        self._copy_meshes(start, end)
+        self._frame_serial += 1
+        self._end_key = None
+
+    @staticmethod
+    def _check_same_layout(start: ColliderArrays, end: ColliderArrays, plan: FramePlan) -> None:
+        for name in ("sphere_center", "capsule_spheres", "plane", "convex_plane_offsets", "mesh_points", "mesh_triangles"):
+            if getattr(start, name).shape != getattr(end, name).shape:
+                raise SceneError(
+                    f"colliders of frame {plan.frame}: '{name}' changes shape between t={plan.time:g} s and the "
+                    "frame's end; colliders may move and deform but not change their point or primitive counts"
+                )
+
+    def _copy_spheres(self, start: ColliderArrays, end: ColliderArrays) -> None:
+        s = start.sphere_center.shape[0]
+        worlds = tuple(_reuse(w, (s, 4)) for w in self.sphere_world)
+        for world, arrays in zip(worlds, (start, end)):
+            world[:, :3] = arrays.sphere_center
+            world[:, 3] = arrays.sphere_radius
+        self.sphere_world = worlds
+        self.sphere_start = _reuse(self.sphere_start, (s, 4))
+        self.sphere_end = _reuse(self.sphere_end, (s, 4))
+        colliders = np.flatnonzero(start.sphere_is_collider)
+        k = colliders.shape[0]
+        self.sphere_colliders = _reuse(self.sphere_colliders, (k,))
+        self.sphere_colliders[:] = colliders
+        params = self.sphere_params = _reuse(self.sphere_params, (k, 2))
+        params[:, 0] = start.sphere_margin[colliders] + self.thickness
+        params[:, 1] = friction_or(start.sphere_friction[colliders], self.friction)
+        self.sphere_data = _reuse(self.sphere_data, (k, 9))
+        c = start.capsule_spheres.shape[0]
+        self.capsule_index = _reuse(self.capsule_index, (c, 2))
+        self.capsule_index[:] = start.capsule_spheres
+        params = self.capsule_params = _reuse(self.capsule_params, (c, 2))
+        params[:, 0] = start.capsule_margin + self.thickness
+        params[:, 1] = friction_or(start.capsule_friction, self.friction)
+        self.capsule_data = _reuse(self.capsule_data, (c, 17))
+
+    def _copy_convexes(self, start: ColliderArrays, end: ColliderArrays) -> None:
+        p = start.plane.shape[0]
+        k = start.convex_plane_offsets.shape[0] - 1
+        worlds = tuple(_reuse(w, (p, 4)) for w in self.plane_world)
+        worlds[0][:] = start.plane
+        worlds[1][:] = end.plane
+        self.plane_world = worlds
+        self.plane_end = _reuse(self.plane_end, (p, 4))
+        self.convex_offsets = _reuse(self.convex_offsets, (k + 1,))
+        self.convex_offsets[:] = start.convex_plane_offsets
+        self.convex_translation = _reuse(self.convex_translation, (k, 3))
+        convex_translation(worlds[0], worlds[1], self.convex_offsets, self.convex_translation)
+        data = self.convex_data = _reuse(self.convex_data, (k, 5))
+        data[:, 0] = start.convex_margin + self.thickness
+        data[:, 1] = friction_or(start.convex_friction, self.friction)
+
+    def _copy_meshes(self, start: ColliderArrays, end: ColliderArrays) -> None:
+        m = start.mesh_points.shape[0]
+        t = start.mesh_triangles.shape[0]
+        same = (
+            self.mesh_world[0].shape == (m, 3)
+            and np.array_equal(self.mesh_world[0], start.mesh_points)
+            and np.array_equal(self.mesh_world[1], end.mesh_points)
+            and np.array_equal(self.triangles, start.mesh_triangles)
+        )
+        # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
+        self.mesh_still = self.solver.history is None and np.array_equal(start.mesh_points, end.mesh_points)
+        if same and self.mesh_still and self._mesh_packed:
+            return
+        self._mesh_packed = False
+        worlds = tuple(_reuse(w, (m, 3)) for w in self.mesh_world)
+        worlds[0][:] = start.mesh_points
+        worlds[1][:] = end.mesh_points
+        self.mesh_world = worlds
+        self.mesh_start = _reuse(self.mesh_start, (m, 3))
+        self.mesh_end = _reuse(self.mesh_end, (m, 3))
+        self.triangles = _reuse(self.triangles, (t, 3))
+        self.triangles[:] = start.mesh_triangles
+        params = self.triangle_params = _reuse(self.triangle_params, (t, 2))
+        params[:, 0] = start.mesh_margin[start.triangle_mesh] + self.thickness
+        params[:, 1] = friction_or(start.mesh_friction[start.triangle_mesh], self.friction)
+        self.triangle_data = _reuse(self.triangle_data, (t, 32))
+        self.bounds = _reuse(self.bounds, (t, 6))
+        self.cell_ranges = _reuse(self.cell_ranges, (t, 6))
+        if t == 0:
+            return
+        # float32 rounding of world coordinates: grow the boxes by a few ulps of the extent
+        extent = max(float(np.abs(worlds[0]).max()), float(np.abs(worlds[1]).max()), 1e-6)
+        margins = np.ascontiguousarray(params[:, 0])
+        triangle_bounds(worlds[0], worlds[1], self.triangles, margins, self.real(extent * 1e-6), self.bounds)
+        cells = grid_layout(self.bounds, float(CELLS_PER_TRIANGLE * t), self.grid)
+        entries = grid_cell_ranges(self.bounds, self.grid, self.cell_ranges)
+        self.cell_start = _at_least(self.cell_start, cells + 1)
+        self.cell_items = _at_least(self.cell_items, entries)
+        grid_fill(self.cell_ranges, self.grid, self.cell_start, self.cell_items)
+
+    # ------------------------------------------------------------------ per iteration
+    def pose(self, iteration: Iteration) -> None:
+        """Pose the colliders for ``iteration``: start at alpha0 with the frame's pose at the
+        iteration's start, end at alpha1 with its pose at the end."""
+        history = self.solver.history
+        before = now = None
+        if history is not None:
+            before, now = history.before, history.now
+            self.frame[0:3] = before.rotation
+            self.frame[3] = before.translation
+            self.frame[4:7] = now.rotation
+            self.frame[7] = now.translation
+        alpha0, alpha1 = float(iteration.alpha0), float(iteration.alpha1)
+        frame = self.frame
+        # the last iteration's end is this one's start when neither the time nor the pose changed
+        continues = self._end_key == (self._frame_serial, alpha0) and before is self._end_pose
+        pose_mesh = not (self.mesh_still and self._mesh_packed)
+        if continues:
+            self.sphere_start, self.sphere_end = self.sphere_end, self.sphere_start
+            if pose_mesh:
+                self.mesh_start, self.mesh_end = self.mesh_end, self.mesh_start
+        else:
+            pose_spheres(*self.sphere_world, frame, alpha0, 0, self.sphere_start)
+            if pose_mesh:
+                pose_points(*self.mesh_world, frame, alpha0, 0, self.mesh_start)
+        pose_spheres(*self.sphere_world, frame, alpha1, 1, self.sphere_end)
+        pose_planes(*self.plane_world, frame, alpha1, 1, self.plane_end)
+        self._end_key = (self._frame_serial, alpha1)
+        self._end_pose = now
+        pack_spheres(self.sphere_start, self.sphere_end, self.sphere_colliders, self.sphere_params, self.sphere_data)
+        pack_capsules(self.sphere_start, self.sphere_end, self.capsule_index, self.capsule_params, self.capsule_data)
+        convex_shift(self.convex_translation, frame, alpha1 - alpha0, self.convex_data)
+        if pose_mesh:
+            pose_points(*self.mesh_world, frame, alpha1, 1, self.mesh_end)
+            pack_triangles(self.mesh_start, self.mesh_end, self.triangles, self.triangle_params, self.triangle_data)
+            self._mesh_packed = self.mesh_still
+
+    def _groups(self, empty: bool = False) -> tuple[tuple, tuple]:
+        """The kernels' (shapes, mesh) argument groups; zero-length views when ``empty``."""
+        if empty:
+            shapes = (
+                self.sphere_data[:0], self.capsule_data[:0], self.plane_end[:0], self.convex_offsets[:1], self.convex_data[:0]
+            )
+            return shapes, (self.triangle_data[:0], self.cell_start, self.cell_items, self.cell_ranges[:0], self.grid)
+        shapes = (self.sphere_data, self.capsule_data, self.plane_end, self.convex_offsets, self.convex_data)
+        return shapes, (self.triangle_data, self.cell_start, self.cell_items, self.cell_ranges, self.grid)
+
+    def warm_up(self) -> None:
+        state = self.solver.state
+        shapes, mesh = self._groups(empty=True)
+        self.kernel(
+            shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale, self.meters_per_unit, state.cur[:0]
+        )
+        collide_virtual(
+            self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.mass_scale,
+            self.meters_per_unit, state.cur[:0],
+        )
+        spheres, points, planes = self.sphere_start[:0], self.mesh_start[:0], self.plane_end[:0]
+        pose_spheres(spheres, spheres, self.frame, 0.0, 0, spheres)
+        pose_points(points, points, self.frame, 0.0, 0, points)
+        pose_planes(planes, planes, self.frame, 0.0, 0, planes)
+        pack_spheres(spheres, spheres, self.sphere_colliders[:0], self.sphere_params[:0], self.sphere_data[:0])
+        pack_capsules(spheres, spheres, self.capsule_index[:0], self.capsule_params[:0], self.capsule_data[:0])
+        convex_translation(planes, planes, self.convex_offsets[:1], self.convex_translation[:0])
+        convex_shift(self.convex_translation[:0], self.frame, 0.0, self.convex_data[:0])
+        triangles, bounds = self.triangles[:0], self.bounds[:0]
+        pack_triangles(points, points, triangles, self.triangle_params[:0], self.triangle_data[:0])
+        triangle_bounds(points, points, triangles, self.triangle_params[:0, 0].copy(), self.real(0.0), bounds)
+        grid = self.grid.copy()
+        grid_layout(bounds, 1.0, grid)
+        grid_cell_ranges(bounds, grid, self.cell_ranges[:0])
+        grid_fill(self.cell_ranges[:0], grid, self.cell_start.copy(), self.cell_items[:0])
+
+    def run(self, iteration: Iteration) -> None:
+        state = self.solver.state
+        self.pose(iteration)
+        shapes, mesh = self._groups()
+        self.kernel(shapes, mesh, self.frame, state.prev, self.continuous, self.mass_scale, self.meters_per_unit, state.cur)
+        if self.virtual.shape[0]:
+            collide_virtual(
+                self.virtual, self.virtual_weights, shapes, mesh, self.frame, state.prev, self.mass_scale,
+                self.meters_per_unit, state.cur,
+            )

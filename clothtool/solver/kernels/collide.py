@@ -1,0 +1,425 @@
+"""Collision of particles and virtual particles with the colliders (NvCloth's collideParticles).
+
+The kernels read packed records (see collide_shapes, collide_mesh), all in the cloth's local
+frame and posed for the current iteration by the stage (clothtool.solver.kernels.collide_pose):
+
+    shapes = (sphere_data (s,9), capsule_data (c,17), planes at the end (p,4),
+              convex offsets i32 (k+1,), convex_data (k,5): margin, friction, own shift xyz)
+    mesh   = (triangle_data (t,32), cell_start i32, cell_items i32, cell_ranges i32 (t,6),
+              grid (7,))
+    frame  = (8,3) float64: the cloth frame's poses at the iteration's start and end
+
+Per particle (one that can move: prev.w > 0 and cur.w > 0):
+
+1. continuous collision (optional) with spheres and capsules: the earliest time of impact of
+   the particle's path prev -> cur against each moving collider; when the particle would end
+   on the far side of it (the outward normal where it stops points against the normal where
+   it hit), it is put on the end pose's surface where it hit (NvCloth: it sticks to the
+   collider for the rest of the iteration).
+2. discrete contacts at cur, each a push-out to the margin: one per sphere, capsule and convex
+   it is inside, plus the deepest mesh triangle; the particle moves by their AVERAGE.
+3. friction: with n the direction of that average push-out, the particle's displacement over
+   the iteration relative to the colliders' surfaces (cur - prev - average surface
+   displacement at the contacts) loses min(1, budget / |tangential part|) of its tangential
+   part, where budget is the average of mu * |push-out| over the contacts (Coulomb's law for
+   positions: the normal correction bounds the tangential one).
+4. collision mass scale (NvCloth): cur.w *= 1 / (1 + mass_scale * |push-out in metres|^2);
+   integration restores it from prev.w next iteration.
+
+Arrays are unpacked once per kernel and handed to device functions only when they hold
+primitives: every array passed to a call costs reference counting, per particle.
+"""
+
+from __future__ import annotations
+
+import types
+
+import numba
+import numpy as np
+
+from clothtool._jit import kernel
+from clothtool.solver.kernels.collide_mesh import mesh_contact
+from clothtool.solver.kernels.collide_shapes import (
+    capsule_at,
+    capsule_time_of_impact,
+    convex_distance,
+    rotate_between,
+    round_cone_distance,
+    sphere_distance,
+    sphere_time_of_impact,
+)
+
+TINY = np.float32(1e-12)
+
+
+@kernel
+def _unit(x, y, z):
+    """(x, y, z) / |(x, y, z)|, or +y for a zero vector."""
+    length = np.sqrt(x * x + y * y + z * z)
+    if length <= TINY:
+        return np.float32(0.0), np.float32(1.0), np.float32(0.0)
+    inv = np.float32(1.0) / length
+    return x * inv, y * inv, z * inv
+
+
+@kernel
+def continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data):
+    """(moved, x, y, z): where the particle moving q -> p ends after continuous collision:
+    p itself, or the end pose's surface point where it hit the collider with the earliest
+    time of impact among those it would otherwise end up beyond."""
+    one = np.float32(1.0)
+    best = np.float32(2.0)
+    rx, ry, rz = px, py, pz
+    S = sphere_data
+    for s in range(S.shape[0]):
+        t = sphere_time_of_impact(
+            qx, qy, qz, px, py, pz, S[s, 0], S[s, 1], S[s, 2], S[s, 3], S[s, 4], S[s, 5], S[s, 6], S[s, 7]
+        )
+        if t < 0.0 or t >= best:
+            continue
+        u = one - t
+        hx, hy, hz = _unit(
+            u * qx + t * px - (u * S[s, 0] + t * S[s, 4]),
+            u * qy + t * py - (u * S[s, 1] + t * S[s, 5]),
+            u * qz + t * pz - (u * S[s, 2] + t * S[s, 6]),
+        )
+        _, nx, ny, nz = sphere_distance(px, py, pz, S[s, 4], S[s, 5], S[s, 6], S[s, 7])
+        if nx * hx + ny * hy + nz * hz >= 0.0:
+            continue  # ends on the side it came from: discrete collision will do
+        best = t
+        rx = S[s, 4] + S[s, 7] * hx
+        ry = S[s, 5] + S[s, 7] * hy
+        rz = S[s, 6] + S[s, 7] * hz
+    C = capsule_data
+    for c in range(C.shape[0]):
+        t, hx, hy, hz, sigma = capsule_time_of_impact(qx, qy, qz, px, py, pz, C, c)
+        if t < 0.0 or t >= best:
+            continue
+        _, nx, ny, nz, _ = round_cone_distance(
+            px, py, pz, C[c, 8], C[c, 9], C[c, 10], C[c, 11], C[c, 12], C[c, 13], C[c, 14], C[c, 15]
+        )
+        if nx * hx + ny * hy + nz * hz >= 0.0:
+            continue
+        # carry the hit normal with the capsule's axis from time t to the end
+        ax, ay, az, _, bx, by, bz, _ = capsule_at(C, c, t)
+        ux, uy, uz = _unit(bx - ax, by - ay, bz - az)
+        ex, ey, ez = _unit(C[c, 12] - C[c, 8], C[c, 13] - C[c, 9], C[c, 14] - C[c, 10])
+        hx, hy, hz = rotate_between(ux, uy, uz, ex, ey, ez, hx, hy, hz)
+        w = one - sigma
+        radius = w * C[c, 11] + sigma * C[c, 15]
+        best = t
+        rx = w * C[c, 8] + sigma * C[c, 12] + radius * hx
+        ry = w * C[c, 9] + sigma * C[c, 13] + radius * hy
+        rz = w * C[c, 10] + sigma * C[c, 14] + radius * hz
+    return best <= one, rx, ry, rz
+
+
+@kernel
+def sphere_contacts(px, py, pz, sphere_data):
+    """Contacts of the point p with the spheres: (count, push-out sum xyz, surface
+    displacement sum xyz, sum of friction * |push-out|)."""
+    zero = np.float32(0.0)
+    count = 0
+    dx = dy = dz = sx = sy = sz = budget = zero
+    S = sphere_data
+    for s in range(S.shape[0]):
+        d, nx, ny, nz = sphere_distance(px, py, pz, S[s, 4], S[s, 5], S[s, 6], S[s, 7])
+        if d < zero:
+            count += 1
+            dx -= d * nx
+            dy -= d * ny
+            dz -= d * nz
+            sx += S[s, 4] - S[s, 0]
+            sy += S[s, 5] - S[s, 1]
+            sz += S[s, 6] - S[s, 2]
+            budget -= S[s, 8] * d
+    return count, dx, dy, dz, sx, sy, sz, budget
+
+
+@kernel
+def capsule_contacts(px, py, pz, capsule_data):
+    """Contacts of the point p with the capsules, as sphere_contacts; the surface displacement
+    is the end spheres' displacements interpolated at the contact's sigma."""
+    zero = np.float32(0.0)
+    count = 0
+    dx = dy = dz = sx = sy = sz = budget = zero
+    C = capsule_data
+    for c in range(C.shape[0]):
+        d, nx, ny, nz, sigma = round_cone_distance(
+            px, py, pz, C[c, 8], C[c, 9], C[c, 10], C[c, 11], C[c, 12], C[c, 13], C[c, 14], C[c, 15]
+        )
+        if d < zero:
+            count += 1
+            dx -= d * nx
+            dy -= d * ny
+            dz -= d * nz
+            w = np.float32(1.0) - sigma
+            sx += w * (C[c, 8] - C[c, 0]) + sigma * (C[c, 12] - C[c, 4])
+            sy += w * (C[c, 9] - C[c, 1]) + sigma * (C[c, 13] - C[c, 5])
+            sz += w * (C[c, 10] - C[c, 2]) + sigma * (C[c, 14] - C[c, 6])
+            budget -= C[c, 16] * d
+    return count, dx, dy, dz, sx, sy, sz, budget
+
+
+@kernel
+def frame_motion(frame, x, y, z):
+    """Displacement over the iteration, in local coordinates, of the world-fixed point that
+    sits at local x at the iteration's end: x - R0^T (R1 x + T1 - T0)."""
+    wx = frame[4, 0] * x + frame[4, 1] * y + frame[4, 2] * z + frame[7, 0] - frame[3, 0]
+    wy = frame[5, 0] * x + frame[5, 1] * y + frame[5, 2] * z + frame[7, 1] - frame[3, 1]
+    wz = frame[6, 0] * x + frame[6, 1] * y + frame[6, 2] * z + frame[7, 2] - frame[3, 2]
+    lx = frame[0, 0] * wx + frame[1, 0] * wy + frame[2, 0] * wz
+    ly = frame[0, 1] * wx + frame[1, 1] * wy + frame[2, 1] * wz
+    lz = frame[0, 2] * wx + frame[1, 2] * wy + frame[2, 2] * wz
+    return np.float32(x - lx), np.float32(y - ly), np.float32(z - lz)
+
+
+@kernel
+def convex_contacts(px, py, pz, planes, offsets, convex_data, frame):
+    """Contacts of the point p with the convexes, as sphere_contacts; the surface point moves
+    with the world (frame_motion) plus the convex's own shift."""
+    zero = np.float32(0.0)
+    count = 0
+    dx = dy = dz = sx = sy = sz = budget = zero
+    for k in range(offsets.shape[0] - 1):
+        d, nx, ny, nz = convex_distance(px, py, pz, planes, offsets[k], offsets[k + 1], convex_data[k, 0])
+        if d < zero:
+            count += 1
+            dx -= d * nx
+            dy -= d * ny
+            dz -= d * nz
+            mx, my, mz = frame_motion(frame, px - d * nx, py - d * ny, pz - d * nz)
+            sx += mx + convex_data[k, 2]
+            sy += my + convex_data[k, 3]
+            sz += mz + convex_data[k, 4]
+            budget -= convex_data[k, 1] * d
+    return count, dx, dy, dz, sx, sy, sz, budget
+
+
+@kernel
+def friction_correction(px, py, pz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget):
+    """Correction to add to p (already pushed out by d) that removes min(1, budget / |t|) of
+    t, the part of the relative displacement p - q - s tangential to d."""
+    zero = np.float32(0.0)
+    rx = px - qx - sx
+    ry = py - qy - sy
+    rz = pz - qz - sz
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if length > TINY:
+        inv = np.float32(1.0) / length
+        nx = dx * inv
+        ny = dy * inv
+        nz = dz * inv
+        normal = rx * nx + ry * ny + rz * nz
+        rx -= normal * nx
+        ry -= normal * ny
+        rz -= normal * nz
+    tangential = np.sqrt(rx * rx + ry * ry + rz * rz)
+    if tangential <= TINY or budget <= zero:
+        return zero, zero, zero
+    fraction = min(np.float32(1.0), budget / tangential)
+    return -fraction * rx, -fraction * ry, -fraction * rz
+
+
+def _collide_particles(shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
+    """Collide every movable particle (see the module docstring); writes only its own row."""
+    one = np.float32(1.0)
+    sphere_data, capsule_data, planes, offsets, convex_data = shapes
+    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
+    spheres = sphere_data.shape[0] > 0
+    capsules = capsule_data.shape[0] > 0
+    convexes = offsets.shape[0] > 1
+    meshes = triangle_data.shape[0] > 0
+    continuous = continuous and (spheres or capsules)
+    for p in numba.prange(cur.shape[0]):
+        if prev[p, 3] == 0.0 or cur[p, 3] == 0.0:
+            continue
+        px = cur[p, 0]
+        py = cur[p, 1]
+        pz = cur[p, 2]
+        qx = prev[p, 0]
+        qy = prev[p, 1]
+        qz = prev[p, 2]
+        if continuous:
+            _, px, py, pz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
+        count = 0
+        dx = dy = dz = sx = sy = sz = budget = np.float32(0.0)
+        if spheres:
+            n, ex, ey, ez, tx, ty, tz, b = sphere_contacts(px, py, pz, sphere_data)
+            count += n
+            dx += ex
+            dy += ey
+            dz += ez
+            sx += tx
+            sy += ty
+            sz += tz
+            budget += b
+        if capsules:
+            n, ex, ey, ez, tx, ty, tz, b = capsule_contacts(px, py, pz, capsule_data)
+            count += n
+            dx += ex
+            dy += ey
+            dz += ez
+            sx += tx
+            sy += ty
+            sz += tz
+            budget += b
+        if convexes:
+            n, ex, ey, ez, tx, ty, tz, b = convex_contacts(px, py, pz, planes, offsets, convex_data, frame)
+            count += n
+            dx += ex
+            dy += ey
+            dz += ez
+            sx += tx
+            sy += ty
+            sz += tz
+            budget += b
+        if meshes:
+            hit, ex, ey, ez, tx, ty, tz, mu = mesh_contact(
+                px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame
+            )
+            if hit:
+                count += 1
+                dx += ex
+                dy += ey
+                dz += ez
+                sx += tx
+                sy += ty
+                sz += tz
+                budget += mu * np.sqrt(ex * ex + ey * ey + ez * ez)
+        if count > 0:
+            inv = one / np.float32(count)
+            dx *= inv
+            dy *= inv
+            dz *= inv
+            px += dx
+            py += dy
+            pz += dz
+            fx, fy, fz = friction_correction(px, py, pz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv)
+            px += fx
+            py += fy
+            pz += fz
+            if mass_scale > 0.0:
+                square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
+                cur[p, 3] *= one / (one + mass_scale * square)
+        cur[p, 0] = px
+        cur[p, 1] = py
+        cur[p, 2] = pz
+
+
+def _variant(func, suffix: str):
+    """A copy of ``func`` under another name, so its serial and parallel compilations keep
+    separate numba cache entries."""
+    copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
+    copy.__qualname__ = func.__qualname__ + suffix
+    return copy
+
+
+collide_particles = kernel(_variant(_collide_particles, "_serial"))
+collide_particles_parallel = kernel(parallel=True)(_variant(_collide_particles, "_parallel"))
+
+
+@kernel
+def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, meters_per_unit, cur):
+    """Virtual particles (rows i, j, k, weight row): the weighted point of three particles
+    collides like a particle (discrete contacts, friction, mass scale) and its correction c is
+    shared out as x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
+    a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
+    order, each seeing the corrections before it; the fabric orders them in conflict-free
+    batches, so this equals solving each batch at once."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    sphere_data, capsule_data, planes, offsets, convex_data = shapes
+    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
+    spheres = sphere_data.shape[0] > 0
+    capsules = capsule_data.shape[0] > 0
+    convexes = offsets.shape[0] > 1
+    meshes = triangle_data.shape[0] > 0
+    for r in range(virtual.shape[0]):
+        a = virtual[r, 0]
+        b = virtual[r, 1]
+        c = virtual[r, 2]
+        wa = weights[virtual[r, 3], 0]
+        wb = weights[virtual[r, 3], 1]
+        wc = weights[virtual[r, 3], 2]
+        ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
+        mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
+        mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
+        norm = ma * ma + mb * mb + mc * mc
+        if norm <= zero:
+            continue
+        px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
+        py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
+        pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
+        qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
+        qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
+        qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
+        count = 0
+        dx = dy = dz = sx = sy = sz = budget = zero
+        if spheres:
+            n, ex, ey, ez, tx, ty, tz, f = sphere_contacts(px, py, pz, sphere_data)
+            count += n
+            dx += ex
+            dy += ey
+            dz += ez
+            sx += tx
+            sy += ty
+            sz += tz
+            budget += f
+        if capsules:
+            n, ex, ey, ez, tx, ty, tz, f = capsule_contacts(px, py, pz, capsule_data)
+            count += n
+            dx += ex
+            dy += ey
+            dz += ez
+            sx += tx
+            sy += ty
+            sz += tz
+            budget += f
+        if convexes:
+            n, ex, ey, ez, tx, ty, tz, f = convex_contacts(px, py, pz, planes, offsets, convex_data, frame)
+            count += n
+            dx += ex
+            dy += ey
+            dz += ez
+            sx += tx
+            sy += ty
+            sz += tz
+            budget += f
+        if meshes:
+            hit, ex, ey, ez, tx, ty, tz, mu = mesh_contact(
+                px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame
+            )
+            if hit:
+                count += 1
+                dx += ex
+                dy += ey
+                dz += ez
+                sx += tx
+                sy += ty
+                sz += tz
+                budget += mu * np.sqrt(ex * ex + ey * ey + ez * ez)
+        if count == 0:
+            continue
+        inv = one / np.float32(count)
+        dx *= inv
+        dy *= inv
+        dz *= inv
+        fx, fy, fz = friction_correction(
+            px + dx, py + dy, pz + dz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv
+        )
+        cx = dx + fx
+        cy = dy + fy
+        cz = dz + fz
+        scale = one
+        if mass_scale > 0.0:
+            square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
+            scale = one / (one + mass_scale * square)
+        for particle, m in ((a, ma), (b, mb), (c, mc)):
+            if m == zero:
+                continue
+            share = m / norm
+            cur[particle, 0] += cx * share
+            cur[particle, 1] += cy * share
+            cur[particle, 2] += cz * share
+            cur[particle, 3] *= one + (scale - one) * m

@@ -1,0 +1,192 @@
+"""Self- and cloth-cloth collision: particles keep a minimum distance, found on a hashed grid.
+
+The stage gathers the points it tests into one array ``points`` (m,4): the cloth's own
+particles first (a snapshot of cur, inverse mass in w), then the particles of neighbouring
+cloths, moved into this cloth's frame. ``point_segment`` (m,) says which cloth a point
+belongs to (0 = this cloth) and ``segment_distance`` gives, per segment, the distance this
+cloth keeps from that segment's points (0 = ignore them).
+
+Grid: cell size = twice the largest distance. Cell (cx, cy, cz) hashes into one of B
+buckets (B a power of two), and the points are counting-sorted by bucket (stable: by index
+within a bucket) into contiguous copies. Every point closer than the distance to a point p
+lies in the 2 x 2 x 2 block of cells around the cell corner nearest to p (per axis, p's
+cell and the neighbour on the side of the half p lies in), so a query scans 8 cells (not
+the 27 of cells as large as the distance), keeping only the points whose cell matches
+exactly (two cells sharing a bucket never yield a point twice). Cost O(m + B) to build,
+O(m) to query for a bounded number of points per cell.
+
+Response, per own particle i (Jacobi, so the result does not depend on the order or on the
+thread count): over its neighbours j closer than the pair's distance D (and, for two
+particles of this cloth, no closer than D in the rest pose, NvCloth's rest filter)
+
+    c_ij = (x_i - x_j) (D / |x_i - x_j| - 1) w_i / (w_i + w_j)      (i's share of the push)
+    x_i += k * sum_j d_ij c_ij / sum_j d_ij,     d_ij = D - |x_i - x_j| (the penetration)
+
+i.e. the share of a distance constraint's correction that moves i, averaged over the
+constraints acting on i, weighted by their penetration. A particle pressed against a sheet
+meets several of its particles at once: summing their corrections (Jacobi) would overshoot
+and jitter, and a plain average (Macklin et al. 2014) would jump whenever a pair crosses the
+distance; the weighted average is continuous and never exceeds the largest correction.
+Positions are read from the snapshot and written to cur, so every particle sees the state
+at the start of the stage. Pinned particles (w = 0) do not move; coincident points (no
+direction to separate along) are skipped.
+"""
+
+from __future__ import annotations
+
+import types
+
+import numba
+import numpy as np
+
+from clothtool._jit import kernel
+
+CELL_LIMIT = np.float32(1.0e9)  # cell coordinates are clamped to +-this (and NaN maps to -it)
+HASH_X = np.int64(73856093)
+HASH_Y = np.int64(19349663)
+HASH_Z = np.int64(83492791)
+
+
+@kernel
+def transform_points(src, matrix, offset, w_scale, dst):
+    """dst[i] = (matrix @ src[i,:3] + offset, src[i,3] * w_scale): a neighbour's particles in
+    this cloth's frame; w_scale = 0 makes them immovable (a sleeping neighbour)."""
+    for i in range(src.shape[0]):
+        x = src[i, 0]
+        y = src[i, 1]
+        z = src[i, 2]
+        for d in range(3):
+            dst[i, d] = matrix[d, 0] * x + matrix[d, 1] * y + matrix[d, 2] * z + offset[d]
+        dst[i, 3] = src[i, 3] * w_scale
+
+
+@kernel(inline="always")
+def _cell_coordinate(x, inv_cell):
+    c = np.floor(x * inv_cell)
+    if not c > -CELL_LIMIT:  # also NaN
+        c = -CELL_LIMIT
+    elif c > CELL_LIMIT:
+        c = CELL_LIMIT
+    return np.int32(c)
+
+
+@kernel(inline="always")
+def _bucket(cx, cy, cz, mask):
+    return ((np.int64(cx) * HASH_X) ^ (np.int64(cy) * HASH_Y) ^ (np.int64(cz) * HASH_Z)) & mask
+
+
+@kernel
+def build_grid(points, inv_cell, bucket_start, order, sorted_points, sorted_cell):
+    """Hash points into cells of size 1/inv_cell and counting-sort them by bucket.
+
+    bucket_start i32 (B+1,), B a power of two: bucket b holds sorted slots
+    bucket_start[b]:bucket_start[b+1]; order i32 (m,): the point in each sorted slot (by
+    index within a bucket); sorted_points (m,4) and sorted_cell i32 (m,3): each slot's point
+    and cell, so that a bucket's points are contiguous in memory.
+    """
+    buckets = bucket_start.shape[0] - 1
+    mask = np.int64(buckets - 1)
+    for b in range(bucket_start.shape[0]):
+        bucket_start[b] = 0
+    for i in range(points.shape[0]):
+        cx = _cell_coordinate(points[i, 0], inv_cell)
+        cy = _cell_coordinate(points[i, 1], inv_cell)
+        cz = _cell_coordinate(points[i, 2], inv_cell)
+        bucket_start[_bucket(cx, cy, cz, mask) + 1] += 1
+    for b in range(buckets):
+        bucket_start[b + 1] += bucket_start[b]
+    # scatter with bucket_start[b] as bucket b's cursor, then shift the ends back to starts
+    for i in range(points.shape[0]):
+        cx = _cell_coordinate(points[i, 0], inv_cell)
+        cy = _cell_coordinate(points[i, 1], inv_cell)
+        cz = _cell_coordinate(points[i, 2], inv_cell)
+        b = _bucket(cx, cy, cz, mask)
+        k = bucket_start[b]
+        bucket_start[b] = k + 1
+        order[k] = i
+        for d in range(4):
+            sorted_points[k, d] = points[i, d]
+        sorted_cell[k, 0] = cx
+        sorted_cell[k, 1] = cy
+        sorted_cell[k, 2] = cz
+    for b in range(buckets, 0, -1):
+        bucket_start[b] = bucket_start[b - 1]
+    bucket_start[0] = 0
+
+
+def _collide_points(
+    sorted_points, sorted_cell, bucket_start, order, rest, point_segment, segment_distance, inv_cell, stiffness, cur
+):
+    """Push each own particle i < cur.shape[0] away from the points closer than their
+    segment's distance (see the module docstring); reads the grid, updates ``cur``.
+
+    The cell size 1/inv_cell must be at least twice the largest segment distance: then the
+    points within reach of a point lie in the 2 x 2 x 2 cells around the corner of its cell
+    it is nearest to. Particles are visited in grid order, for locality.
+    """
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    half = np.float32(0.5)
+    mask = np.int64(bucket_start.shape[0] - 2)
+    own = cur.shape[0]
+    for slot in numba.prange(sorted_points.shape[0]):
+        i = order[slot]
+        wi = sorted_points[slot, 3]
+        if i >= own or wi == zero:
+            continue
+        xi = sorted_points[slot, 0]
+        yi = sorted_points[slot, 1]
+        zi = sorted_points[slot, 2]
+        # the lower corner of the 2 x 2 x 2 block: the neighbour cell on the nearer side
+        x0 = sorted_cell[slot, 0] - (1 if xi * inv_cell - sorted_cell[slot, 0] < half else 0)
+        y0 = sorted_cell[slot, 1] - (1 if yi * inv_cell - sorted_cell[slot, 1] < half else 0)
+        z0 = sorted_cell[slot, 2] - (1 if zi * inv_cell - sorted_cell[slot, 2] < half else 0)
+        sx = zero
+        sy = zero
+        sz = zero
+        weight = zero
+        for tz in range(z0, z0 + 2):
+            for ty in range(y0, y0 + 2):
+                for tx in range(x0, x0 + 2):
+                    b = _bucket(tx, ty, tz, mask)
+                    for k in range(bucket_start[b], bucket_start[b + 1]):
+                        if sorted_cell[k, 0] != tx or sorted_cell[k, 1] != ty or sorted_cell[k, 2] != tz:
+                            continue
+                        j = order[k]
+                        distance = segment_distance[point_segment[j]]
+                        ex = xi - sorted_points[k, 0]
+                        ey = yi - sorted_points[k, 1]
+                        ez = zi - sorted_points[k, 2]
+                        d2 = ex * ex + ey * ey + ez * ez
+                        if j == i or not (d2 < distance * distance and d2 > zero):
+                            continue
+                        if j < own:
+                            rx = rest[i, 0] - rest[j, 0]
+                            ry = rest[i, 1] - rest[j, 1]
+                            rz = rest[i, 2] - rest[j, 2]
+                            if rx * rx + ry * ry + rz * rz < distance * distance:
+                                continue
+                        d = np.sqrt(d2)
+                        depth = distance - d
+                        factor = depth * (distance / d - one) * wi / (wi + sorted_points[k, 3])
+                        sx += ex * factor
+                        sy += ey * factor
+                        sz += ez * factor
+                        weight += depth
+        if weight > zero:
+            scale = stiffness / weight
+            cur[i, 0] += sx * scale
+            cur[i, 1] += sy * scale
+            cur[i, 2] += sz * scale
+
+
+def _variant(func, suffix: str):
+    """A copy of ``func`` under another name, so that its serial and parallel compilations
+    keep separate numba cache entries (as in kernels.fabric)."""
+    copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
+    copy.__qualname__ = func.__qualname__ + suffix
+    return copy
+
+
+collide_points = kernel(_variant(_collide_points, "_serial"))
+collide_points_parallel = kernel(parallel=True)(_variant(_collide_points, "_parallel"))

@@ -1,0 +1,128 @@
+"""Stage: self-collision and cloth-cloth collision (NvCloth's selfCollideParticles, on a grid).
+
+Particles of this cloth keep the material's ``self_collision_distance`` (metres, converted to
+scene units) from each other, except pairs that are closer than that in the rest pose
+(NvCloth's rest filter: neighbours at rest are not fought over). With
+``SolverConfig.cloth_collision`` the cloth also keeps its particles away from those of its
+neighbour cloths (``ClothSolver.neighbours``), read in their current state and moved into
+this cloth's frame; only this cloth's particles move, by their share of each pair's
+correction (w_i / (w_i + w_j)), and each neighbour's own stage moves its side.
+
+A cloth-cloth pair keeps the *larger* of the two cloths' distances, so that both cloths
+agree on the separation they enforce (with its own distance each, the thicker cloth would
+keep pushing against a gap the thinner one is content with). A sleeping neighbour's
+particles count as immovable, so this cloth takes the whole correction.
+
+Stiffness: ``self_collision_stiffness`` per stiffness-frequency step, converted to the
+iteration length in log space like every NvCloth stiffness. The kernels are described in
+``clothtool.solver.kernels.selfcollide``; all buffers are allocated here, once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.kernels.selfcollide import build_grid, collide_points, collide_points_parallel, transform_points
+from clothtool.solver.logstiffness import iteration_stiffness
+from clothtool.solver.stage import Stage
+
+_EYE = np.eye(3, dtype=np.float32)
+_ZERO = np.zeros(3, np.float32)
+
+
+def pair_distances(solver) -> list[float]:
+    """Scene units: the distance kept from this cloth's own particles (0 when self-collision
+    is off), then from each neighbour's particles (0 when cloth-cloth collision is off)."""
+    material = solver.model.material
+    to_scene = 1.0 / solver.model.units_to_meters
+    own = material.self_collision_distance
+    distances = [own * to_scene if solver.config.self_collision else 0.0]
+    for neighbour in solver.neighbours if solver.config.cloth_collision else ():
+        distances.append(max(own, neighbour.model.material.self_collision_distance) * to_scene)
+    return distances
+
+
+def needs_self_collide(solver) -> bool:
+    """Whether the cloth has anything to collide its particles with."""
+    return solver.model.material.self_collision_stiffness > 0 and max(pair_distances(solver)) > 0
+
+
+def _pose(solver):
+    return None if solver.history is None else solver.history.now
+
+
+class SelfCollideStage(Stage):
+    name = "self-collide"
+
+    def __init__(self, solver):
+        super().__init__(solver)
+        distances = pair_distances(solver)
+        self.neighbours = list(solver.neighbours) if len(distances) > 1 else []
+        sizes = [solver.model.particle_count] + [n.model.particle_count for n in self.neighbours]
+        ends = np.cumsum(sizes)
+        total = int(ends[-1])
+        self.own = sizes[0]
+        self.spans = [(int(ends[k]), int(ends[k + 1])) for k in range(len(self.neighbours))]
+        self.segment_distance = np.asarray(distances, np.float32)
+        self.point_segment = np.repeat(np.arange(len(sizes), dtype=np.int32), sizes)
+        self.inv_cell = np.float32(0.5 / max(distances))  # cells twice the largest distance
+        dtype = solver.state.cur.dtype
+        self.points = np.zeros((total, 4), dtype)
+        self.sorted_points = np.zeros((total, 4), dtype)
+        self.sorted_cell = np.zeros((total, 3), np.int32)
+        buckets = 1 << max(1, int(2 * total - 1).bit_length())  # a power of two >= 2 * total
+        self.bucket_start = np.zeros(buckets + 1, np.int32)
+        self.order = np.zeros(total, np.int32)
+        # all cores from parallel_threshold points, like the fabric's sets: a parallel kernel
+        # is ~1.7x faster on an idle 2-core machine but waits for every thread, which costs
+        # whole scheduler slices when other jobs share the cores. Same bits either way.
+        parallel = total >= solver.config.parallel_threshold
+        self.kernel = collide_points_parallel if parallel else collide_points
+        self.stiffness = np.float32(0.0)
+
+    def begin_frame(self, plan: FramePlan) -> None:
+        solver = self.solver
+        k = solver.model.material.self_collision_stiffness
+        self.stiffness = iteration_stiffness(k, solver.config.stiffness_frequency, plan.h)
+
+    def warm_up(self) -> None:
+        solver = self.solver
+        points, starts, order = self.points[:0], self.bucket_start[:2], self.order[:0]
+        sorted_points, sorted_cell = self.sorted_points[:0], self.sorted_cell[:0]
+        transform_points(solver.state.cur[:0], _EYE, _ZERO, np.float32(1.0), points)
+        for neighbour in self.neighbours:  # their state may be of another precision
+            transform_points(neighbour.state.cur[:0], _EYE, _ZERO, np.float32(1.0), points)
+        build_grid(points, self.inv_cell, starts, order, sorted_points, sorted_cell)
+        self.kernel(
+            sorted_points, sorted_cell, starts, order, solver.model.rest_pos[:0], self.point_segment[:0],
+            self.segment_distance, self.inv_cell, np.float32(1.0), solver.state.cur[:0],
+        )
+
+    def _relative_pose(self, neighbour) -> tuple[np.ndarray, np.ndarray]:
+        """(matrix, offset) taking the neighbour's frame coordinates into this cloth's."""
+        mine, theirs = _pose(self.solver), _pose(neighbour)
+        if mine is None and theirs is None:
+            return _EYE, _ZERO
+        r_a, t_a = (np.eye(3), np.zeros(3)) if mine is None else (mine.rotation, mine.translation)
+        r_b, t_b = (np.eye(3), np.zeros(3)) if theirs is None else (theirs.rotation, theirs.translation)
+        matrix = np.ascontiguousarray(r_a.T @ r_b, np.float32)
+        offset = (r_a.T @ (t_b - t_a)).astype(np.float32)
+        return matrix, offset
+
+    def gather(self) -> None:
+        """Snapshot this cloth's particles and its neighbours' (in this cloth's frame)."""
+        self.points[: self.own] = self.solver.state.cur
+        for neighbour, (start, end) in zip(self.neighbours, self.spans):
+            matrix, offset = self._relative_pose(neighbour)
+            w_scale = np.float32(0.0 if neighbour.sleep.asleep else 1.0)
+            transform_points(neighbour.state.cur, matrix, offset, w_scale, self.points[start:end])
+
+    def run(self, iteration: Iteration) -> None:
+        solver = self.solver
+        self.gather()
+        build_grid(self.points, self.inv_cell, self.bucket_start, self.order, self.sorted_points, self.sorted_cell)
+        self.kernel(
+            self.sorted_points, self.sorted_cell, self.bucket_start, self.order, solver.model.rest_pos,
+            self.point_segment, self.segment_distance, self.inv_cell, self.stiffness, solver.state.cur,
+        )

@@ -1,0 +1,170 @@
+"""transform_points / build_grid / collide_points against tests/reference/selfcollide.py
+(the collision against brute force over all pairs)."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from clothtool.solver.kernels.selfcollide import (
+    build_grid,
+    collide_points,
+    collide_points_parallel,
+    transform_points,
+)
+from tests.kernels._data import F32, U, assert_close, f32
+from tests.reference import selfcollide as ref
+
+seeds = st.integers(0, 2**32 - 1)
+
+
+def grid_buffers(m: int):
+    """bucket_start, order, sorted_points, sorted_cell for m points (B >= 2m buckets)."""
+    buckets = 1 << max(1, int(2 * m - 1).bit_length())
+    starts, order = np.zeros(buckets + 1, np.int32), np.zeros(m, np.int32)
+    return starts, order, np.zeros((m, 4), np.float32), np.zeros((m, 3), np.int32)
+
+
+def scene(rng, own: int, others: int, spacing: float = 0.1, pinned: float = 0.2):
+    """Own particles whose rest positions sit on a lattice of ``spacing`` (so rest distances
+    are spacing * sqrt(integer)), neighbour points, all scattered in a box dense enough for
+    many contacts; inverse masses in [0.5, 2], a fraction pinned (w = 0)."""
+    m = own + others
+    side = int(np.ceil(own ** (1 / 3))) + 2
+    lattice = rng.choice(side**3, own, replace=False)
+    rest = f32(np.stack(np.unravel_index(lattice, (side,) * 3), axis=1) * spacing)
+    points = np.empty((m, 4), np.float32)
+    extent = 0.12 * max(m, 1) ** (1 / 3)
+    points[:, :3] = rng.uniform(-extent, extent, (m, 3))
+    points[:, 3] = np.where(rng.random(m) < pinned, 0.0, rng.uniform(0.5, 2.0, m))
+    segment = np.zeros(m, np.int32)
+    segment[own:] = rng.integers(1, 3, others)
+    return points, rest, segment
+
+
+def collide(kernel, points, rest, segment, distances, stiffness, inv_cell=None, reference=False):
+    """Build the grid (cells twice the largest distance unless given) and collide; returns
+    the own particles after the kernel (or the reference)."""
+    own = rest.shape[0]
+    inv_cell = F32(0.5 / distances.max()) if inv_cell is None else inv_cell
+    starts, order, sorted_points, sorted_cell = grid_buffers(points.shape[0])
+    build_grid(points, inv_cell, starts, order, sorted_points, sorted_cell)
+    cur = points[:own].copy()
+    args = (sorted_points, sorted_cell, starts, order, rest, segment, distances, inv_cell, stiffness)
+    if reference:
+        return ref.collide_points(*args, cur)
+    kernel(*args, cur)
+    return cur
+
+
+@settings(max_examples=30)
+@given(seed=seeds, m=st.integers(0, 300), scale=st.sampled_from([0.05, 0.3, 2.0]))
+def test_build_grid_matches_reference(seed, m, scale):
+    rng = np.random.default_rng(seed)
+    points = f32(np.concatenate([rng.normal(0.0, scale, (m, 3)), np.ones((m, 1))], axis=1))
+    inv_cell = F32(rng.uniform(2.0, 20.0))
+    grid = grid_buffers(m)
+    build_grid(points, inv_cell, *grid)
+    for got, want, name in zip(grid, ref.build_grid(points, inv_cell, *grid), ("starts", "order", "points", "cell")):
+        np.testing.assert_array_equal(got, want, err_msg=name)
+    starts, order, sorted_points, cell = grid
+    # every point once, in the bucket its cell hashes to
+    assert sorted(order.tolist()) == list(range(m))
+    np.testing.assert_array_equal(sorted_points, points[order])
+    mask = starts.shape[0] - 2
+    for b in range(starts.shape[0] - 1):
+        for k in range(starts[b], starts[b + 1]):
+            assert ref._bucket(*cell[k], mask) == b
+
+
+def test_build_grid_survives_nonfinite_and_huge_coordinates():
+    points = f32([[np.nan, 0, 0, 1], [np.inf, -np.inf, 0, 1], [3e38, -3e38, 1e20, 1], [0, 0, 0, 1]])
+    starts, order, sorted_points, sorted_cell = grid = grid_buffers(4)
+    build_grid(points, F32(100.0), *grid)
+    cell = np.empty_like(sorted_cell)
+    cell[order] = sorted_cell
+    np.testing.assert_array_equal(cell[0], [-1e9, 0, 0])
+    np.testing.assert_array_equal(cell[1], [1e9, -1e9, 0])
+    np.testing.assert_array_equal(cell[2], [1e9, -1e9, 1e9])
+    assert sorted(order.tolist()) == [0, 1, 2, 3]
+    # and colliding them neither crashes nor moves the finite particle
+    rest = f32(np.arange(4)[:, None] * np.full((4, 3), 10.0))
+    cur = collide(collide_points, points, rest, np.zeros(4, np.int32), f32([0.1]), F32(1.0))
+    np.testing.assert_array_equal(cur[3], points[3])
+
+
+@settings(max_examples=25)
+@given(seed=seeds, own=st.integers(0, 120), others=st.integers(0, 80), self_on=st.booleans())
+def test_collide_matches_brute_force(seed, own, others, self_on):
+    rng = np.random.default_rng(seed)
+    spacing = 0.1
+    points, rest, segment = scene(rng, own, others, spacing)
+    # distances away from the lattice's rest distances spacing * sqrt(k), so float32 and
+    # float64 agree on the rest filter; segment 2 keeps nothing
+    d_self = spacing * np.sqrt(rng.integers(1, 5) + 0.5)
+    distances = f32([d_self if self_on else 0.0, rng.uniform(0.05, 0.25), 0.0])
+    stiffness = F32(rng.uniform(0.2, 1.0))
+    got = collide(collide_points, points, rest, segment, distances, stiffness)
+    want = collide(None, points, rest, segment, distances, stiffness, reference=True)
+    # corrections below ~0.25 built from ~30 roundings each
+    assert_close(got, want, 64 * U * 0.25 + 4 * U * 1.0, "cur")
+    moved = np.any(got != points[:own], axis=1)
+    assert not moved[points[:own, 3] == 0].any(), "a pinned particle moved"
+    if own > 30 and others > 30:
+        assert moved.any(), "the setup should produce contacts"
+
+
+@settings(max_examples=10)
+@given(seed=seeds)
+def test_serial_and_parallel_give_the_same_bits(seed):
+    rng = np.random.default_rng(seed)
+    points, rest, segment = scene(rng, 400, 200)
+    distances = f32([0.15, 0.2, 0.1])
+    serial = collide(collide_points, points, rest, segment, distances, F32(0.7))
+    parallel = collide(collide_points_parallel, points, rest, segment, distances, F32(0.7))
+    np.testing.assert_array_equal(serial, parallel)
+    assert np.any(serial != points[:400])
+
+
+def test_a_pair_is_pushed_to_the_distance_by_inverse_mass():
+    """Two particles D/2 apart: with equal masses each moves D/4; with one pinned the other
+    moves the whole D/2; particles that were closer than D at rest are left alone."""
+    d = 0.1
+    rest_far = f32([[0, 0, 0], [1, 0, 0]])
+    points = f32([[0, 0, 0, 1], [0.05, 0, 0, 1]])
+    segment = np.zeros(2, np.int32)
+    got = collide(collide_points, points, rest_far, segment, f32([d]), F32(1.0))
+    assert_close(got[:, :3], [[-0.025, 0, 0], [0.075, 0, 0]], 8 * U, "equal masses")
+    points[0, 3] = 0.0
+    got = collide(collide_points, points, rest_far, segment, f32([d]), F32(1.0))
+    assert_close(got[:, :3], [[0, 0, 0], [0.1, 0, 0]], 8 * U, "one pinned")
+    points[0, 3] = 1.0
+    got = collide(collide_points, points, rest_far, segment, f32([d]), F32(0.5))
+    assert_close(got[:, 0], [-0.0125, 0.0625], 8 * U, "half stiffness")
+    rest_near = f32([[0, 0, 0], [0.09, 0, 0]])
+    got = collide(collide_points, points, rest_near, segment, f32([d]), F32(1.0))
+    np.testing.assert_array_equal(got, points)
+
+
+def test_neighbour_points_push_only_own_particles():
+    """A neighbour's point (segment 1) pushes an own particle by its share; the neighbour
+    point itself is not in cur and so cannot move; coincident points are skipped."""
+    points = f32([[0, 0, 0, 1], [5, 5, 5, 1], [0.02, 0, 0, 3], [5, 5, 5, 1]])
+    rest = f32([[0, 0, 0], [9, 9, 9]])
+    segment = np.array([0, 0, 1, 1], np.int32)
+    got = collide(collide_points, points, rest, segment, f32([0.0, 0.1]), F32(1.0))
+    assert_close(got[0, :3], [-0.08 * 0.25, 0, 0], 8 * U, "share 1/(1+3)")
+    np.testing.assert_array_equal(got[1], points[1])  # coincident with neighbour point 3
+
+
+def test_transform_points_matches_reference():
+    rng = np.random.default_rng(3)
+    src = f32(rng.normal(size=(50, 4)))
+    angle = 0.7
+    matrix = f32([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    offset = f32([0.5, -1.0, 2.0])
+    for w_scale in (F32(1.0), F32(0.0)):
+        dst = np.zeros_like(src)
+        transform_points(src, matrix, offset, w_scale, dst)
+        assert_close(dst, ref.transform_points(src, matrix, offset, w_scale), 16 * U * 4, "dst")
