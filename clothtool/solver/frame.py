@@ -3,24 +3,25 @@
 A cloth that follows a track (a cape on a running character) is simulated in the track's
 frame: world = R(t) x + T(t). Let n-1, n, n+1 be the ends of the last two iterations and
 the current one, c_n(x) = P_n(x) - P_{n-1}(x) the frame's motion of a fixed local point over
-the last iteration and c_{n+1} over this one. World-space Verlet with velocity scale s,
-rewritten in local coordinates, is exactly
+the last iteration and c_{n+1} over this one. World-space Verlet, rewritten in local
+coordinates, is exactly
 
-    x' = x + s R_{n+1}^T R_{n-1} (x - x_prev) + R_{n+1}^T (s c_n(x) - c_{n+1}(x)) + R_{n+1}^T g h^2
+    x' = x + R_{n+1}^T R_{n-1} (x - x_prev) + R_{n+1}^T (c_n(x) - c_{n+1}(x)) + R_{n+1}^T g h^2
 
-We scale the frame terms: inertia i (1 = physical, 0 = particles follow the frame rigidly)
+Damping (velocity scale s) acts on the velocity relative to the frame, as in NvCloth: the
+air moves with the character, and the frame's own velocity is shed only through drag. We
+also scale the frame terms: inertia i (1 = physical, 0 = particles follow the frame rigidly)
 multiplies the frame's acceleration term, and drag d removes the fraction d of the frame's
 velocity from the particles (NvCloth's semantics), separately for the linear part (the
 translation) and the angular part (the rotation):
 
     x' = x + s Q (x - x_prev) + K x + b
     Q = i_a R_{n+1}^T R_{n-1} + (1 - i_a) I
-    K = R_{n+1}^T [ i_a (s D_n - D_{n+1}) - d_a D_{n+1} ]          D_n = R_n - R_{n-1}
-    b = R_{n+1}^T [ i_l (s dT_n - dT_{n+1}) - d_l dT_{n+1} + g h^2 ] dT_n = T_n - T_{n-1}
+    K = R_{n+1}^T [ i_a (D_n - D_{n+1}) - d_a D_{n+1} ]           D_n = R_n - R_{n-1}
+    b = R_{n+1}^T [ i_l (dT_n - dT_{n+1}) - d_l dT_{n+1} + g h^2 ]   dT_n = T_n - T_{n-1}
 
-With i = 1 and d = 0 this is world-space Verlet to rounding; a teleport resets the pose
-history so the jump carries no velocity. Drag values are per stiffness-frequency step and
-converted in log space like damping.
+With i = 1, d = 0 and no damping this is world-space Verlet to rounding. Drag values are per
+stiffness-frequency step and converted in log space like damping.
 """
 
 from __future__ import annotations
@@ -118,8 +119,8 @@ class FrameHistory:
         q = i_ang * (inv @ r_prev) + (1.0 - i_ang) * IDENTITY
         d_n, d_n1 = r_now - r_prev, r_next - r_now
         dt_n, dt_n1 = t_now - t_prev, t_next - t_now
-        k = inv @ (i_ang * (scale * d_n - d_n1) - d_ang * d_n1)
-        b = inv @ (i_lin * (scale * dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)
+        k = inv @ (i_ang * (d_n - d_n1) - d_ang * d_n1)
+        b = inv @ (i_lin * (dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)
         terms = IterationTerms(
             m_cur=(scale * q + k).astype(dtype),
             m_prev=(-scale * q).astype(dtype),

@@ -32,12 +32,10 @@ primitives: every array passed to a call costs reference counting, per particle.
 
 from __future__ import annotations
 
-import types
-
 import numba
 import numpy as np
 
-from clothtool._jit import kernel
+from clothtool._jit import kernel, serial_and_parallel
 from clothtool.solver.kernels.collide_mesh import mesh_contact
 from clothtool.solver.kernels.collide_shapes import (
     capsule_at,
@@ -307,16 +305,9 @@ def _collide_particles(shapes, mesh, frame, prev, continuous, mass_scale, meters
         cur[p, 2] = pz
 
 
-def _variant(func, suffix: str):
-    """A copy of ``func`` under another name, so its serial and parallel compilations keep
-    separate numba cache entries."""
-    copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
-    copy.__qualname__ = func.__qualname__ + suffix
-    return copy
 
 
-collide_particles = kernel(_variant(_collide_particles, "_serial"))
-collide_particles_parallel = kernel(parallel=True)(_variant(_collide_particles, "_parallel"))
+collide_particles, collide_particles_parallel = serial_and_parallel(_collide_particles)
 
 
 @kernel

@@ -16,12 +16,10 @@ as the serial one, whatever the thread count.
 
 from __future__ import annotations
 
-import types
-
 import numba
 import numpy as np
 
-from clothtool._jit import kernel
+from clothtool._jit import serial_and_parallel
 
 FLT_EPSILON = np.float32(1.1920929e-07)
 # Guards sqrt and division when two particles coincide. NvCloth adds FLT_EPSILON here, which
@@ -66,16 +64,9 @@ def _solve_phases(indices, rest, constraint_stiffness, set_offsets, phase_set_of
                 cur[b, 2] -= hz * fb
 
 
-def _variant(func, suffix: str):
-    """A copy of ``func`` under another name, so the serial and parallel compilations of the
-    same source keep separate numba cache entries."""
-    copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
-    copy.__qualname__ = func.__qualname__ + suffix
-    return copy
 
 
-solve_phases = kernel(_variant(_solve_phases, "_serial"))
-solve_phases_parallel = kernel(parallel=True)(_variant(_solve_phases, "_parallel"))
+solve_phases, solve_phases_parallel = serial_and_parallel(_solve_phases)
 
 
 def _solve_phases_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
@@ -111,5 +102,4 @@ def _solve_phases_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
             cur[b, 2] -= hz * fb
 
 
-solve_xpbd = kernel(_variant(_solve_phases_xpbd, "_serial"))
-solve_xpbd_parallel = kernel(parallel=True)(_variant(_solve_phases_xpbd, "_parallel"))
+solve_xpbd, solve_xpbd_parallel = serial_and_parallel(_solve_phases_xpbd)

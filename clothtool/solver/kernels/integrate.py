@@ -7,7 +7,6 @@ collision during the last iteration and is restored here. Pinned particles do no
 
 from __future__ import annotations
 
-import numpy as np
 
 from clothtool._jit import kernel
 

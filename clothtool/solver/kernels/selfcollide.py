@@ -34,12 +34,10 @@ direction to separate along) are skipped.
 
 from __future__ import annotations
 
-import types
-
 import numba
 import numpy as np
 
-from clothtool._jit import kernel
+from clothtool._jit import kernel, serial_and_parallel
 
 CELL_LIMIT = np.float32(1.0e9)  # cell coordinates are clamped to +-this (and NaN maps to -it)
 HASH_X = np.int64(73856093)
@@ -180,13 +178,6 @@ def _collide_points(
             cur[i, 2] += sz * scale
 
 
-def _variant(func, suffix: str):
-    """A copy of ``func`` under another name, so that its serial and parallel compilations
-    keep separate numba cache entries (as in kernels.fabric)."""
-    copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
-    copy.__qualname__ = func.__qualname__ + suffix
-    return copy
 
 
-collide_points = kernel(_variant(_collide_points, "_serial"))
-collide_points_parallel = kernel(parallel=True)(_variant(_collide_points, "_parallel"))
+collide_points, collide_points_parallel = serial_and_parallel(_collide_points)
