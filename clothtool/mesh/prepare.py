@@ -299,7 +299,9 @@ def prepare_mesh(mesh: ClothMesh, weld: float = 1e-6, strict: bool = False) -> P
     _check_fatal(mesh)
     repairs = _Repairs(mesh.source, strict)
     input_count = mesh.vertex_count
-    diag = bounding_box_diagonal(mesh.vertex_pos[np.unique(mesh.face_vertex_indices)])
+    referenced = np.zeros(mesh.vertex_count, bool)
+    referenced[mesh.face_vertex_indices] = True
+    diag = bounding_box_diagonal(mesh.vertex_pos[referenced])
     if diag == 0.0:
         raise MeshError(f"{mesh.source}: all vertices coincide; export the garment at its real size")
     mesh, vertex_map = _weld(mesh, weld, diag)
