@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.kernels.stats import constraint_strain, motion_summary, tether_stretch
+from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch
 
 PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
 
@@ -17,14 +17,20 @@ class ClothMeter:
     def __init__(self, solver):
         self.solver = solver
         model = solver.model
-        self.by_label = {label: model.phase_constraints(label) for label in PHASE_LABELS}
-        self.by_label = {k: v for k, v in self.by_label.items() if v.size}
+        # each phase is a contiguous range of constraints: per label, its (first, last) spans
+        self.spans: dict[str, list[tuple[int, int]]] = {}
+        for p, label in enumerate(model.phase_labels):
+            first = int(model.set_offsets[model.phase_set_offsets[p]])
+            last = int(model.set_offsets[model.phase_set_offsets[p + 1]])
+            if last > first:
+                self.spans.setdefault(label, []).append((first, last))
         self.strain = np.zeros(model.constraint_indices.shape[0], np.float32)
         self.has_tethers = model.has_tethers
 
     def warm_up(self) -> None:
         model, state = self.solver.model, self.solver.state
         constraint_strain(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur, self.strain[:0])
+        strain_extremes(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur)
         motion_summary(state.cur[:0], state.prev[:0], model.mass[:0], 1.0)
         tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
 
@@ -32,12 +38,20 @@ class ClothMeter:
         """Stats after the last iteration of a frame of iteration length ``h``."""
         model, state = self.solver.model, self.solver.state
         to_m = model.units_to_meters
-        constraint_strain(model.constraint_indices, model.constraint_rest_length, state.cur, self.strain)
+        indices, rest = model.constraint_indices, model.constraint_rest_length
         strain = {}
-        for label, indices in self.by_label.items():
-            values = self.strain[indices]
-            entry = {"max": float(values.max()), "mean": float(values.astype(np.float64).mean())}
-            if percentiles:
+        for label in PHASE_LABELS:
+            if label not in self.spans:
+                continue
+            worst, total, count = -np.inf, 0.0, 0
+            for first, last in self.spans[label]:
+                span_max, span_sum = strain_extremes(indices[first:last], rest[first:last], state.cur)
+                worst, total, count = max(worst, span_max), total + span_sum, count + last - first
+            entry = {"max": float(worst), "mean": total / count}
+            if percentiles:  # the 99th percentile needs every strain: compute and keep them
+                for first, last in self.spans[label]:
+                    constraint_strain(indices[first:last], rest[first:last], state.cur, self.strain[first:last])
+                values = np.concatenate([self.strain[a:b] for a, b in self.spans[label]])
                 entry["p99"] = float(np.percentile(values, 99.0))
             strain[label] = entry
         speed, energy, fastest, bad = motion_summary(state.cur, state.prev, model.mass, 1.0 / h)

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clothtool.solver.kernels.stats import constraint_strain, motion_summary, tether_stretch
+from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch
 from tests.kernels._data import U, assert_close, f32, particles
 from tests.reference import stats as ref
 
@@ -39,6 +39,14 @@ def test_strain_matches_reference(seed, n, c):
     # and the final - 1 rounds once more
     assert_close(got, want, 10 * U * (np.abs(want) + 1), "strain")
     np.testing.assert_array_equal(got[rest == 0], 0.0)
+    # the reduction sees the same strains: max within the same bound, sum within c of them
+    worst, total = strain_extremes(indices, rest, cur)
+    want_worst, want_total = ref.strain_extremes(indices, rest, cur)
+    if c:
+        assert worst == pytest.approx(want_worst, abs=10 * U * (abs(want_worst) + 1))
+        assert total == pytest.approx(want_total, abs=10 * U * float(np.sum(np.abs(want) + 1)) + 1e-12)
+    else:
+        assert worst == -np.inf and total == 0.0
 
 
 @settings(max_examples=30)

@@ -128,3 +128,113 @@ def solver_for():
 @pytest.fixture
 def simulate():
     return run_frames
+
+
+# ---------------------------------------------------------------- analytic scenes and hard cases
+# Helpers shared by test_analytic_*.py and test_hard_*.py (and benchmarks/accuracy/, which runs
+# the same scenes over more settings). Measurements are float64 numpy, independent of the
+# solver's kernels.
+
+import dataclasses  # noqa: E402  (appended section)
+
+
+def crossing_times(times, values) -> np.ndarray:
+    """Times at which the sampled signal ``values`` changes sign, each interpolated linearly
+    between the two samples around it."""
+    t = np.asarray(times, np.float64)
+    x = np.asarray(values, np.float64)
+    i = np.flatnonzero(np.sign(x[:-1]) * np.sign(x[1:]) < 0)
+    return t[i] - x[i] * (t[i + 1] - t[i]) / (x[i + 1] - x[i])
+
+
+def stretch_strain(solver) -> float:
+    """Largest stretch strain |x_b - x_a| / rest - 1 over the stretch (vertical and
+    horizontal) constraints of ``solver``'s cloth, in float64 (0 when it has none)."""
+    model = solver.model
+    index = np.concatenate([model.phase_constraints("vertical"), model.phase_constraints("horizontal")])
+    if index.size == 0:
+        return 0.0
+    pairs = model.constraint_indices[index]
+    rest = model.constraint_rest_length[index].astype(np.float64)
+    points = solver.state.cur[:, :3].astype(np.float64)
+    length = np.linalg.norm(points[pairs[:, 1]] - points[pairs[:, 0]], axis=1)
+    return float((length / rest - 1.0).max())
+
+
+def particle_speed(solver, h: float) -> float:
+    """Largest particle speed over the last iteration of length ``h``, world frame, m/s
+    (inf when a position is not finite)."""
+    velocity = solver.world_velocities(h).astype(np.float64)
+    if not np.isfinite(velocity).all():
+        return float("inf")
+    return float(np.linalg.norm(velocity, axis=1).max())
+
+
+def make_collider_solver(fabric, colliders, material: Material, config: SolverConfig, gravity=(0.0, -9.81, 0.0), **kwargs):
+    """A ClothSolver like ``make_solver``'s whose environment has ``colliders`` (a
+    ColliderArrays, or a function of time in seconds returning one)."""
+    call = colliders if callable(colliders) else (lambda t: colliders)
+    model = build_model("cloth", fabric, material, Placement(), 1.0, "Y")
+    environment = Environment(gravity=np.asarray(gravity, np.float64), colliders=call)
+    return ClothSolver(model, config, environment, StageProfiler(), **kwargs)
+
+
+@dataclasses.dataclass
+class HardCaseRun:
+    """What one run of a hard case measured, in SI units (see tests/physics/test_hard_*.py).
+
+    nan_frame: first frame that ended with a NaN or infinite particle (None: never);
+    max_speed: largest particle speed at the end of any frame (m/s);
+    late_strain: largest stretch strain at the ends of the frames from ``settle`` seconds on;
+    final_strain: stretch strain at the end of the run;
+    penetration: deepest a particle ended an iteration inside a collider's margin (m);
+    energy_excess: largest (energy - energy released) over the run (J; <= 0 passes);
+    notes: anything else worth a column in the report (keys starting with "_" hold raw
+        values for the tests and are left out of the summary).
+    """
+
+    frames: int = 0
+    nan_frame: int | None = None
+    max_speed: float = 0.0
+    late_strain: float = 0.0
+    final_strain: float = 0.0
+    penetration: float = 0.0
+    energy_excess: float = float("-inf")
+    notes: dict = dataclasses.field(default_factory=dict)
+
+    def failures(
+        self,
+        speed_limit: float,
+        strain_target: float = float("inf"),
+        penetration_limit: float = float("inf"),
+        energy_tolerance: float | None = None,
+    ) -> list[str]:
+        """One line per criterion the run misses (an empty list: it passes)."""
+        failed = []
+        if self.nan_frame is not None:
+            failed.append(f"NaN/Inf at frame {self.nan_frame}")
+        if not self.max_speed <= speed_limit:
+            failed.append(f"max speed {self.max_speed:.3g} m/s > {speed_limit:g}")
+        if not self.late_strain <= strain_target:
+            failed.append(f"strain {self.late_strain:.2%} after settling > {strain_target:.1%}")
+        if not self.penetration <= penetration_limit:
+            failed.append(f"penetration {1000 * self.penetration:.2f} mm > {1000 * penetration_limit:.2f} mm")
+        if energy_tolerance is not None and not self.energy_excess <= energy_tolerance:
+            failed.append(f"energy rose {self.energy_excess:.3g} J above the released energy")
+        return failed
+
+    def summary(self) -> str:
+        parts = [f"vmax {self.max_speed:.3g} m/s"]
+        if self.late_strain or self.final_strain:
+            parts.append(f"strain {self.late_strain:.2%} late / {self.final_strain:.2%} final")
+        if self.penetration > 0:
+            parts.append(f"penetration {1000 * self.penetration:.2f} mm")
+        if np.isfinite(self.energy_excess):
+            parts.append(f"energy excess {self.energy_excess:+.3g} J")
+        parts += [f"{key} {value}" for key, value in self.notes.items() if not key.startswith("_")]
+        return ", ".join(parts)
+
+
+@pytest.fixture
+def collider_solver_for():
+    return make_collider_solver

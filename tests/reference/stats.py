@@ -60,3 +60,9 @@ def tether_stretch(anchors, lengths, cur):
         return 0.0
     ratio = np.linalg.norm(p[anchors[active]] - p[own[active]], axis=1) / lengths[active] - 1.0
     return max(0.0, float(ratio.max()))
+
+
+def strain_extremes(indices, rest, cur):
+    """(max, sum) of constraint_strain over the given constraints (-inf, 0 when none)."""
+    strain = constraint_strain(indices, rest, cur)
+    return (float(strain.max()) if strain.size else -np.inf), float(strain.sum())

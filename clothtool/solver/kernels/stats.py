@@ -68,3 +68,22 @@ def tether_stretch(anchors, lengths, cur):
         if ratio > worst:
             worst = ratio
     return worst
+
+
+@kernel
+def strain_extremes(indices, rest, cur):
+    """(max strain, sum of strains) over the constraints given: the same strain as
+    ``constraint_strain``, reduced without storing it (float64 sum)."""
+    worst = -np.inf
+    total = 0.0
+    for c in range(indices.shape[0]):
+        a = indices[c, 0]
+        b = indices[c, 1]
+        dx = cur[b, 0] - cur[a, 0]
+        dy = cur[b, 1] - cur[a, 1]
+        dz = cur[b, 2] - cur[a, 2]
+        r = rest[c]
+        strain = np.sqrt(dx * dx + dy * dy + dz * dz) / r - np.float32(1.0) if r > 0 else np.float32(0.0)
+        worst = max(worst, np.float64(strain))
+        total += strain
+    return worst, total

@@ -11,6 +11,11 @@ from numba import prange
 from numba.extending import register_jitable as jitable
 
 from clothtool._jit import kernel
+
+# Contact decisions compare distances with margins exactly at the boundary (a resting
+# particle sits at the margin); fused multiply-adds would flip some of them, so this module
+# keeps plain IEEE arithmetic (its cost is small next to the conjugate-gradient solve).
+EXACT = False
 from clothtool.integrators.implicit import vec
 
 NO_CONTACT = 1e30  # phi of a particle that touches nothing
@@ -288,7 +293,7 @@ def _end_contact(cs, p0, p1):
     return _nearer(_nearest_contact(cs, p1), _mesh_crossing(cs, p0, p1))
 
 
-@kernel
+@kernel(fastmath=EXACT)
 def nearest_contacts(cs, points, out):
     """out (n,8): the contact nearest to every row of points (n,3): (phi, normal xyz,
     friction, collider velocity xyz), phi = signed distance - margin (NO_CONTACT: none)."""
@@ -316,7 +321,7 @@ def _impulse(v, dvn, contact):
     return v
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, fastmath=EXACT)
 def collide_particles(start, end, x0, mass, free, thickness, stiffness, h, passes, v_mid, v_end, contact):
     """Bridson's steps 1-3 (module docstring) for every free particle.
 
@@ -359,7 +364,7 @@ def collide_particles(start, end, x0, mass, free, thickness, stiffness, h, passe
                 contact[i, k] = last[k]
 
 
-@kernel(parallel=True)
+@kernel(parallel=True, fastmath=EXACT)
 def project_particles(end, x0, free, thickness, h, v_mid, v_end, contact):
     """Bridson's step 4, the final robust pass, for every free particle: an end position
     x0 + h v_mid within the thickness of a collider is moved onto the surface (+ thickness)
@@ -386,7 +391,7 @@ def project_particles(end, x0, free, thickness, h, v_mid, v_end, contact):
                 vec.set_row(v_end, i, vec.axpy(-inward, n, keep))
 
 
-@kernel
+@kernel(fastmath=EXACT)
 def end_contacts(cs, start_points, end_points, out):
     """out (n,8): for each path start -> end (rows of (n,3) arrays), the contact nearest to
     its end, or a deeper crossing of a mesh face from front to back on the way."""
