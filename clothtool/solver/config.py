@@ -125,7 +125,7 @@ class SolverConfig:
     stiffness_mode: Literal["nvcloth", "xpbd"] = "nvcloth"
     integrator: Literal["pbd", "implicit", "explicit"] = "pbd"
     precision: Literal["float32", "float64"] = "float32"
-    parallel_threshold: int = 20000
+    parallel_threshold: int = 6000
     max_speed: float = 200.0
     sleep_threshold: float = 0.0
     sleep_test_interval: float = 0.1
