@@ -24,9 +24,11 @@ from clothtool.cli.common import emit_json, handle_errors, stderr_is_terminal
               help="Override a key for the reference bake only (e.g. solver.stiffness_mode=xpbd).")
 @click.option("--reference-frequency", type=float, help="Reference solver frequency [8x the largest swept].")
 @click.option("--frames", callback=parse_frames, metavar="START:END", help="Frame range for every bake.")
+@click.option("--append", is_flag=True,
+              help="Add to the study already in the output directory, reusing its reference (e.g. other families).")
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON on stdout.")
 @handle_errors
-def study(scene, sweeps, metric, output, repeats, overrides, reference, reference_frequency, frames, as_json):
+def study(scene, sweeps, metric, output, repeats, overrides, reference, reference_frequency, frames, append, as_json):
     """Bake SCENE for every swept setting and a converged reference; write a work-precision
     table and plot.
 
@@ -36,15 +38,16 @@ def study(scene, sweeps, metric, output, repeats, overrides, reference, referenc
           --sweep solver.stiffness_mode=nvcloth,xpbd --reference solver.stiffness_mode=xpbd -o out/study
     """
     from clothtool.study import StudyOptions, run_study
-    from clothtool.study.output import format_table, write_study
+    from clothtool.study.output import format_table, load_previous, write_study
     from clothtool.study.sweep import Sweep
 
     options = StudyOptions(
         sweeps=tuple(Sweep.parse(s) for s in sweeps), metric=metric, repeats=repeats, overrides=tuple(overrides),
         reference=tuple(reference), reference_frequency=reference_frequency, frames=frames,
     )
+    previous = load_previous(output) if append else None
     with progress_bar(stderr_is_terminal()) as update:
-        result = run_study(scene, options, progress=update)
+        result = run_study(scene, options, progress=update, previous=previous)
     write_study(result, output)
     if as_json:
         emit_json({"rows": result.rows, "reference": result.reference, "machine": result.machine})

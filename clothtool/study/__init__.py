@@ -40,6 +40,17 @@ class StudyOptions:
     frames: tuple[int, int] | None = None
 
 
+@dataclasses.dataclass(frozen=True)
+class Previous:
+    """An earlier study in the output directory (``--append``): its rows and reference."""
+
+    rows: list[dict]
+    reference_frames: dict[int, tuple[np.ndarray, ...]]
+    reference: dict
+    scene: str
+    where: str
+
+
 @dataclasses.dataclass
 class Bake:
     """Positions of the compared frames plus what the bake reported."""
@@ -58,6 +69,7 @@ class StudyResult:
     reference: dict
     machine: dict
     sweeps: list[dict]
+    reference_frames: dict[int, tuple[np.ndarray, ...]] = dataclasses.field(default_factory=dict)
 
 
 def _keep_every(scene: Scene) -> int:
@@ -180,8 +192,14 @@ def _reference(path: Path, options: StudyOptions, all_settings: list[Setting], r
     return previous, {"frequency": frequency / 2.0, "converged": False, "history": history, "overrides": overrides}
 
 
-def run_study(scene_path: str | Path, options: StudyOptions, progress=None) -> StudyResult:
-    """Bake every setting ``repeats`` times and the reference; return the table's rows."""
+def run_study(
+    scene_path: str | Path, options: StudyOptions, progress=None, previous: Previous | None = None
+) -> StudyResult:
+    """Bake every setting ``repeats`` times and the reference; return the table's rows.
+
+    With ``previous`` (an earlier study of the same scene and reference), its reference is
+    reused and its rows are kept: a setting baked again replaces its old row.
+    """
     if options.metric not in METRICS:
         raise ClothtoolError(f"--metric {options.metric}: use one of {', '.join(METRICS)}")
     if options.repeats < 1:
@@ -214,7 +232,18 @@ def run_study(scene_path: str | Path, options: StudyOptions, progress=None) -> S
         errors = [e for e in errors if e > 0 and math.isfinite(e)]
         return min(errors) if errors else 0.0
 
-    reference, reference_info = _reference(path, options, all_settings, min_error)
+    if previous is not None:
+        base = _load(path, list(options.overrides), options.frames)
+        wanted = list(options.overrides) + ['solver.precision="float64"'] + list(options.reference)
+        if previous.scene != base.name or previous.reference.get("overrides") != wanted:
+            raise ClothtoolError(
+                f"{previous.where}: the study there is of scene '{previous.scene}' with reference overrides "
+                f"{previous.reference.get('overrides')}; --append needs the same scene, --set and --reference"
+            )
+        reference = Bake(previous.reference_frames, {}, previous.reference.get("wall_s", 0.0), ())
+        reference_info = dict(previous.reference)
+    else:
+        reference, reference_info = _reference(path, options, all_settings, min_error)
     if progress:
         progress(len(all_settings) + 1, len(all_settings) + 1)
     size = _cloth_size(reference)
@@ -223,6 +252,9 @@ def run_study(scene_path: str | Path, options: StudyOptions, progress=None) -> S
         _failed_row(setting, runs) if isinstance(runs, str) else _row(setting, runs, reference, size, base)
         for setting, runs in baked
     ]
+    if previous is not None:
+        fresh = {(r["family"], r["label"]) for r in rows}
+        rows = [r for r in previous.rows if (r["family"], r["label"]) not in fresh] + rows
     reference_info["cloth_size"] = size
     reference_info["wall_s"] = reference.wall_s
     return StudyResult(
@@ -232,4 +264,5 @@ def run_study(scene_path: str | Path, options: StudyOptions, progress=None) -> S
         reference=reference_info,
         machine=machine_info(),
         sweeps=[{"key": s.key, "values": list(s.values)} for s in options.sweeps],
+        reference_frames=reference.frames,
     )

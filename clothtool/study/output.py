@@ -8,6 +8,8 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
+
 from clothtool.errors import ClothtoolError
 from clothtool.io.atomic import atomic_output
 
@@ -65,16 +67,35 @@ def format_table(result) -> str:
     changes = ", ".join(f"{h['change_from_half']:.3g}" for h in ref["history"]) or "n/a"
     status = "converged" if ref["converged"] else "NOT converged"
     lines.append(f"reference: {ref['frequency']:g} Hz, float64, {status} (changes on doubling: {changes})")
+    resolved = _reference_resolution(result)
+    if resolved is not None:
+        lines.append(
+            f"note: rows with position errors below {resolved:.3g} are as close to the reference as the reference "
+            "is to itself on doubling; their true errors are not resolved"
+        )
     m = result.machine
     lines.append(f"machine: {m['cpu']}, {m['cores']} cores, {m['system']}, python {m['python']}, numba {m['numba']}")
     return "\n".join(lines)
+
+
+def _reference_resolution(result) -> float | None:
+    """The reference's last change on doubling, if some row's position error is below 10x it
+    (a row appended after the reference was judged converged can be that accurate)."""
+    history = result.reference.get("history") or []
+    if not history:
+        return None
+    change = history[-1]["change_from_half"]
+    errors = [r["position_rms"] for r in result.rows if not r["failed"] and math.isfinite(r["position_rms"])]
+    return change if errors and min(errors) < 10 * change else None
 
 
 def _csv(result) -> str:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     keys = [k for k, _ in COLUMNS] + ["failed"]
-    setting_keys = [s["key"] for s in result.sweeps]
+    setting_keys = []  # every swept key of every row (appended studies may sweep other keys)
+    for row in result.rows:
+        setting_keys += [k for k in row["setting"] if k not in setting_keys]
     writer.writerow(setting_keys + keys)
     for row in result.rows:
         writer.writerow([row["setting"].get(k, "") for k in setting_keys] + [row[k] if row[k] is not None else "" for k in keys])
@@ -123,8 +144,35 @@ def _plot(result, suffix: str, path: Path) -> None:
     plt.close(fig)
 
 
+def save_reference(frames: dict, path: Path) -> None:
+    """The reference bake's compared frames, so a later ``--append`` study can reuse them."""
+    arrays = {f"frame{frame}_cloth{i}": points for frame, clouds in frames.items() for i, points in enumerate(clouds)}
+    with atomic_output(path) as tmp:
+        with open(tmp, "wb") as handle:
+            np.savez_compressed(handle, **arrays)
+
+
+def load_previous(out_dir: str | Path):
+    """The study already in ``out_dir`` (for ``--append``); run_study checks it matches."""
+    from clothtool.study import Previous
+
+    out = Path(out_dir)
+    table, saved = out / "table.json", out / "reference.npz"
+    if not table.is_file() or not saved.is_file():
+        raise ClothtoolError(f"{out}: --append needs an earlier study there (table.json and reference.npz); run without --append first")
+    data = json.loads(table.read_text())
+    frames: dict[int, list] = {}
+    with np.load(saved) as npz:
+        for name in npz.files:
+            frame, cloth = name[len("frame"):].split("_cloth")
+            frames.setdefault(int(frame), []).append((int(cloth), npz[name]))
+    ordered = {f: tuple(points for _, points in sorted(clouds)) for f, clouds in frames.items()}
+    return Previous(data["rows"], ordered, data["reference"], data["scene"], str(out))
+
+
 def write_study(result, out_dir: str | Path) -> list[Path]:
-    """Write table.txt/.csv/.json and plot.png/.svg into ``out_dir`` (created if missing)."""
+    """Write table.txt/.csv/.json, plot.png/.svg and reference.npz into ``out_dir``
+    (created if missing)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ClothtoolError(f"{out}: exists and is not a directory; give a directory for the study")
@@ -147,4 +195,7 @@ def write_study(result, out_dir: str | Path) -> list[Path]:
         with atomic_output(out / f"plot.{suffix}") as tmp:
             _plot(result, suffix, tmp)
         written.append(out / f"plot.{suffix}")
+    if result.reference_frames:
+        save_reference(result.reference_frames, out / "reference.npz")
+        written.append(out / "reference.npz")
     return written

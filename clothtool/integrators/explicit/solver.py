@@ -150,15 +150,16 @@ class ExplicitClothSolver:
         )
 
     # ------------------------------------------------------------------ frame loop
-    def plan_frame(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+    def plan_frame(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
+        """Plan frame ``frame``, simulated from ``time`` to ``end_time`` (default time + frame_dt)."""
         iterations = substeps(frame_dt, self.config.frequency)
         h = frame_dt / iterations
         self.check_step(h, frame_dt)
-        plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h)
+        plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h, end_time)
         if not self._started:
             self._start(h)
         if self.colliders is not None:
-            self.colliders.begin_frame(time, frame_dt)
+            self.colliders.begin_frame(time, plan.end - time)
         self._plan = plan
         return plan
 
@@ -211,9 +212,9 @@ class ExplicitClothSolver:
             with self.profiler.stage("collide"):
                 self._collide(iteration.alpha1, h)
 
-    def step(self, frame: int, time: float, frame_dt: float) -> FramePlan:
+    def step(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
         """Simulate one frame (all its substeps) on its own."""
-        plan = self.plan_frame(frame, time, frame_dt)
+        plan = self.plan_frame(frame, time, frame_dt, end_time)
         for index in range(plan.iterations):
             self.iterate(self.iteration(plan, index))
         return plan
