@@ -154,27 +154,25 @@ class SolverConfig:
             raise PresetError(f"{where}: cg_tolerance must be positive and cg_max_iterations at least 1")
 
 
-def load_material(name_or_table: str | dict, where: str) -> Material:
-    """A material from a preset name, or a table with an optional ``preset`` key plus overrides."""
+def _load_settings(kind: str, cls, name_or_table: str | dict, where: str):
+    """Settings of ``cls`` from a preset of ``kind`` named by a string, or from a table with an
+    optional ``preset`` key plus overrides; checked."""
     table = {"preset": name_or_table} if isinstance(name_or_table, str) else dict(name_or_table)
-    material = Material()
+    settings = cls()
     preset = table.pop("preset", None)
     if preset is not None:
-        mapping, label = load_preset("material", preset)
-        material = apply_mapping(material, mapping, label)
-    material = apply_mapping(material, table, where)
-    material.check(where)
-    return material
+        mapping, label = load_preset(kind, preset)
+        settings = apply_mapping(settings, mapping, label)
+    settings = apply_mapping(settings, table, where)
+    settings.check(where)
+    return settings
+
+
+def load_material(name_or_table: str | dict, where: str) -> Material:
+    """A material from a preset name, or a table with an optional ``preset`` key plus overrides."""
+    return _load_settings("material", Material, name_or_table, where)
 
 
 def load_solver(name_or_table: str | dict, where: str) -> SolverConfig:
     """Solver settings from a preset name, or a table with an optional ``preset`` key plus overrides."""
-    table = {"preset": name_or_table} if isinstance(name_or_table, str) else dict(name_or_table)
-    config = SolverConfig()
-    preset = table.pop("preset", None)
-    if preset is not None:
-        mapping, label = load_preset("solver", preset)
-        config = apply_mapping(config, mapping, label)
-    config = apply_mapping(config, table, where)
-    config.check(where)
-    return config
+    return _load_settings("solver", SolverConfig, name_or_table, where)

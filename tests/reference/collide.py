@@ -132,6 +132,12 @@ def _contacts(p, q, shapes_group, mesh, frame):
     return found
 
 
+def _discrete_contacts(px, py, pz, qx, qy, qz, shapes_group, mesh, frame, spheres, capsules, convexes, meshes):
+    """(count, push sum, surface-motion sum, budget sum) of every contact of the point; the
+    flags only skip kinds that are absent, so they change nothing here."""
+    return _accumulate(_contacts(np.array([px, py, pz], float), np.array([qx, qy, qz], float), shapes_group, mesh, frame))
+
+
 def _resolve(p, q, found):
     """(correction, push) of a point at p (previous q) with contacts ``found``."""
     count = len(found)

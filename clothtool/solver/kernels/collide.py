@@ -219,6 +219,62 @@ def friction_correction(px, py, pz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget):
     return -fraction * rx, -fraction * ry, -fraction * rz
 
 
+@kernel(inline="always")
+def _discrete_contacts(px, py, pz, qx, qy, qz, shapes, mesh, frame, spheres, capsules, convexes, meshes):
+    """Every contact of the point p (previous position q) with the colliders, summed:
+    (count, push-out sum dx dy dz, collider surface motion sum sx sy sz, friction budget sum)
+    over spheres, capsules, convexes and the deepest mesh triangle. Shared by the particle and
+    virtual-particle kernels; the flags say which primitive kinds exist."""
+    sphere_data, capsule_data, planes, offsets, convex_data = shapes
+    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
+    count = 0
+    dx = dy = dz = sx = sy = sz = budget = np.float32(0.0)
+    if spheres:
+        n, ex, ey, ez, tx, ty, tz, f = sphere_contacts(px, py, pz, sphere_data)
+        count += n
+        dx += ex
+        dy += ey
+        dz += ez
+        sx += tx
+        sy += ty
+        sz += tz
+        budget += f
+    if capsules:
+        n, ex, ey, ez, tx, ty, tz, f = capsule_contacts(px, py, pz, capsule_data)
+        count += n
+        dx += ex
+        dy += ey
+        dz += ez
+        sx += tx
+        sy += ty
+        sz += tz
+        budget += f
+    if convexes:
+        n, ex, ey, ez, tx, ty, tz, f = convex_contacts(px, py, pz, planes, offsets, convex_data, frame)
+        count += n
+        dx += ex
+        dy += ey
+        dz += ez
+        sx += tx
+        sy += ty
+        sz += tz
+        budget += f
+    if meshes:
+        hit, ex, ey, ez, tx, ty, tz, mu = mesh_contact(
+            px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame
+        )
+        if hit:
+            count += 1
+            dx += ex
+            dy += ey
+            dz += ez
+            sx += tx
+            sy += ty
+            sz += tz
+            budget += mu * np.sqrt(ex * ex + ey * ey + ez * ez)
+    return count, dx, dy, dz, sx, sy, sz, budget
+
+
 def _collide_particles(shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
     """Collide every movable particle (see the module docstring); writes only its own row."""
     one = np.float32(1.0)
@@ -240,51 +296,9 @@ def _collide_particles(shapes, mesh, frame, prev, continuous, mass_scale, meters
         qz = prev[p, 2]
         if continuous:
             _, px, py, pz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
-        count = 0
-        dx = dy = dz = sx = sy = sz = budget = np.float32(0.0)
-        if spheres:
-            n, ex, ey, ez, tx, ty, tz, b = sphere_contacts(px, py, pz, sphere_data)
-            count += n
-            dx += ex
-            dy += ey
-            dz += ez
-            sx += tx
-            sy += ty
-            sz += tz
-            budget += b
-        if capsules:
-            n, ex, ey, ez, tx, ty, tz, b = capsule_contacts(px, py, pz, capsule_data)
-            count += n
-            dx += ex
-            dy += ey
-            dz += ez
-            sx += tx
-            sy += ty
-            sz += tz
-            budget += b
-        if convexes:
-            n, ex, ey, ez, tx, ty, tz, b = convex_contacts(px, py, pz, planes, offsets, convex_data, frame)
-            count += n
-            dx += ex
-            dy += ey
-            dz += ez
-            sx += tx
-            sy += ty
-            sz += tz
-            budget += b
-        if meshes:
-            hit, ex, ey, ez, tx, ty, tz, mu = mesh_contact(
-                px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame
-            )
-            if hit:
-                count += 1
-                dx += ex
-                dy += ey
-                dz += ez
-                sx += tx
-                sy += ty
-                sz += tz
-                budget += mu * np.sqrt(ex * ex + ey * ey + ez * ez)
+        count, dx, dy, dz, sx, sy, sz, budget = _discrete_contacts(
+            px, py, pz, qx, qy, qz, shapes, mesh, frame, spheres, capsules, convexes, meshes
+        )
         if count > 0:
             inv = one / np.float32(count)
             dx *= inv
@@ -345,51 +359,9 @@ def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, met
         qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
         qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
         qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
-        count = 0
-        dx = dy = dz = sx = sy = sz = budget = zero
-        if spheres:
-            n, ex, ey, ez, tx, ty, tz, f = sphere_contacts(px, py, pz, sphere_data)
-            count += n
-            dx += ex
-            dy += ey
-            dz += ez
-            sx += tx
-            sy += ty
-            sz += tz
-            budget += f
-        if capsules:
-            n, ex, ey, ez, tx, ty, tz, f = capsule_contacts(px, py, pz, capsule_data)
-            count += n
-            dx += ex
-            dy += ey
-            dz += ez
-            sx += tx
-            sy += ty
-            sz += tz
-            budget += f
-        if convexes:
-            n, ex, ey, ez, tx, ty, tz, f = convex_contacts(px, py, pz, planes, offsets, convex_data, frame)
-            count += n
-            dx += ex
-            dy += ey
-            dz += ez
-            sx += tx
-            sy += ty
-            sz += tz
-            budget += f
-        if meshes:
-            hit, ex, ey, ez, tx, ty, tz, mu = mesh_contact(
-                px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame
-            )
-            if hit:
-                count += 1
-                dx += ex
-                dy += ey
-                dz += ez
-                sx += tx
-                sy += ty
-                sz += tz
-                budget += mu * np.sqrt(ex * ex + ey * ey + ez * ez)
+        count, dx, dy, dz, sx, sy, sz, budget = _discrete_contacts(
+            px, py, pz, qx, qy, qz, shapes, mesh, frame, spheres, capsules, convexes, meshes
+        )
         if count == 0:
             continue
         inv = one / np.float32(count)
