@@ -176,3 +176,24 @@ def test_output_problems(scene_dir, tmp_path):
     assert run("bake", scene).exit_code == 2  # no -o and no --dry-run
     assert run("bake", scene, "-o", "null", "--frames", "1-3").exit_code == 2
     assert "scene file not found" in run("bake", tmp_path / "none.toml", "-o", "null").output
+
+
+def test_explicit_integrator_refuses_an_unstable_step_unless_forced(scene_dir, out_dir):
+    out = out_dir / "x.h5"
+    refused = run("bake", scene_dir / "scene.toml", "-o", out, "--set", 'solver.integrator="explicit"')
+    assert refused.exit_code == 1
+    assert "explicit integration is unstable at h =" in refused.output and "frequency >=" in refused.output
+    assert list(out_dir.iterdir()) == []
+    forced = run("bake", scene_dir / "scene.toml", "-o", "null", "--set", 'solver.integrator="explicit"', "--force", "--json")
+    # forced far beyond the limit the bake blows up: caught as unstable, not a traceback
+    assert forced.exit_code == 1 and "unstable at frame" in forced.output and "Traceback" not in forced.output
+
+
+@pytest.mark.parametrize("preset", ["implicit", "physical"])
+def test_other_solvers_bake_through_the_cli(scene_dir, preset):
+    result = run("bake", scene_dir / "scene.toml", "-o", "null", "--set", f'solver.preset="{preset}"', "--json")
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert data["status"] == "ok" and data["solver"]["integrator"] == ("implicit" if preset == "implicit" else "pbd")
+    if preset == "implicit":
+        assert "cg_iterations" in json.dumps(data["per_frame"][0]["cloths"]["sheet"])
