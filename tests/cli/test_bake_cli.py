@@ -143,7 +143,7 @@ def bad_scene(folder: Path, text: str) -> Path:
         (SCENE.replace("frames = [1, 6]", "frames = [6, 1]"), "runs backwards"),
         (SCENE.replace("[scene]", "[scene]\nmeters_per_unit = -1.0"), "meters_per_unit"),
         (SCENE.replace("[scene]", "[scene]\nmeters_per_unit = \"cm\""), "meters_per_unit"),
-        (SCENE.replace('preset = "preview"', 'preset = "nope"'), "available solver presets: preview, production, reference"),
+        (SCENE.replace('preset = "preview"', 'preset = "nope"'), "available solver presets: explicit, implicit, physical, preview, production, reference"),
         (SCENE.replace('material = "cotton"', 'material = "tweed"'), "available material presets: cotton, denim, jersey, leather, silk"),
         (SCENE.replace("sheet.fabric.h5", "missing.fabric.h5"), "fabric file not found"),
         (SCENE.replace('fabric = "sheet.fabric.h5"', 'mesh = "missing.obj"'), "missing.obj: file not found"),
