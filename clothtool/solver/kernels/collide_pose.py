@@ -29,14 +29,10 @@ def pose_points(world0, world1, frame, alpha, end, out):
 
 @kernel
 def pose_spheres(world0, world1, frame, alpha, end, out):
-    """out (s,4): centres as pose_points, radii interpolated (at least 0)."""
-    o = 4 * end
+    """out (s,4): centres as pose_points (which reads and writes columns 0-2 only), radii
+    interpolated (at least 0)."""
+    pose_points(world0, world1, frame, alpha, end, out)
     for i in range(out.shape[0]):
-        x = world0[i, 0] + alpha * (world1[i, 0] - world0[i, 0]) - frame[o + 3, 0]
-        y = world0[i, 1] + alpha * (world1[i, 1] - world0[i, 1]) - frame[o + 3, 1]
-        z = world0[i, 2] + alpha * (world1[i, 2] - world0[i, 2]) - frame[o + 3, 2]
-        for d in range(3):
-            out[i, d] = frame[o, d] * x + frame[o + 1, d] * y + frame[o + 2, d] * z
         out[i, 3] = max(world0[i, 3] + alpha * (world1[i, 3] - world0[i, 3]), 0.0)
 
 
