@@ -77,3 +77,20 @@ def solve_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
 # The parallel kernels run each set's constraints on all cores; their specification is the same.
 solve_phases_parallel = solve_phases
 solve_xpbd_parallel = solve_xpbd
+
+
+def _edge_slack(cur, a, b, r):
+    """h = pb - pa, the two inverse masses, and the slack 1 - r / |h| (0 when r = 0)."""
+    cur = np.asarray(cur, np.float64)
+    h = cur[b, :3] - cur[a, :3]
+    er = 1.0 - r / np.sqrt(DISTANCE_EPSILON + h @ h) if r > 0 else 0.0
+    return (*h, cur[a, 3], cur[b, 3], er)
+
+
+def _apply_edge(cur, a, b, hx, hy, hz, wa, wb, ex):
+    """Returns cur (float64 copy) with pa += h ex wa and pb -= h ex wb."""
+    cur = np.array(cur, np.float64)
+    h = np.array([hx, hy, hz])
+    cur[a, :3] += h * ex * wa
+    cur[b, :3] -= h * ex * wb
+    return cur

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from clothtool._jit import serial_and_parallel
+from clothtool._jit import kernel, serial_and_parallel
 
 FLT_EPSILON = np.float32(1.1920929e-07)
 # Guards sqrt and division when two particles coincide. NvCloth adds FLT_EPSILON here, which
@@ -29,10 +29,33 @@ FLT_EPSILON = np.float32(1.1920929e-07)
 DISTANCE_EPSILON = np.float32(1e-30)
 
 
+@kernel(inline="always")
+def _edge_slack(cur, a, b, r):
+    """h = pb - pa, both inverse masses, and the slack er = 1 - r / |h| (0 when r = 0)."""
+    hx = cur[b, 0] - cur[a, 0]
+    hy = cur[b, 1] - cur[a, 1]
+    hz = cur[b, 2] - cur[a, 2]
+    e2 = DISTANCE_EPSILON + hx * hx + hy * hy + hz * hz
+    er = np.float32(1.0) - r / np.sqrt(e2) if r > np.float32(0.0) else np.float32(0.0)
+    return hx, hy, hz, cur[a, 3], cur[b, 3], er
+
+
+@kernel(inline="always")
+def _apply_edge(cur, a, b, hx, hy, hz, wa, wb, ex):
+    """pa += h ex wa; pb -= h ex wb (the correction shared by inverse mass)."""
+    fa = ex * wa
+    fb = ex * wb
+    cur[a, 0] += hx * fa
+    cur[a, 1] += hy * fa
+    cur[a, 2] += hz * fa
+    cur[b, 0] -= hx * fb
+    cur[b, 1] -= hy * fb
+    cur[b, 2] -= hz * fb
+
+
 def _solve_phases(indices, rest, constraint_stiffness, set_offsets, phase_set_offsets, phase_params, cur):
     """phase_params (p,4): per phase (stiffness, multiplier, compression term, stretch term)."""
     zero = np.float32(0.0)
-    one = np.float32(1.0)
     for p in range(phase_params.shape[0]):
         k = phase_params[p, 0]
         m = phase_params[p, 1]
@@ -43,27 +66,10 @@ def _solve_phases(indices, rest, constraint_stiffness, set_offsets, phase_set_of
             for c in numba.prange(set_offsets[s], set_offsets[s + 1]):
                 a = indices[c, 0]
                 b = indices[c, 1]
-                hx = cur[b, 0] - cur[a, 0]
-                hy = cur[b, 1] - cur[a, 1]
-                hz = cur[b, 2] - cur[a, 2]
-                wa = cur[a, 3]
-                wb = cur[b, 3]
-                e2 = DISTANCE_EPSILON + hx * hx + hy * hy + hz * hz
-                r = rest[c]
-                er = one - r / np.sqrt(e2) if r > zero else zero
+                hx, hy, hz, wa, wb, er = _edge_slack(cur, a, b, rest[c])
                 if use_multiplier:
                     er -= m * max(lo, min(er, hi))
-                ex = er * k * constraint_stiffness[c] / (FLT_EPSILON + wa + wb)
-                fa = ex * wa
-                fb = ex * wb
-                cur[a, 0] += hx * fa
-                cur[a, 1] += hy * fa
-                cur[a, 2] += hz * fa
-                cur[b, 0] -= hx * fb
-                cur[b, 1] -= hy * fb
-                cur[b, 2] -= hz * fb
-
-
+                _apply_edge(cur, a, b, hx, hy, hz, wa, wb, er * k * constraint_stiffness[c] / (FLT_EPSILON + wa + wb))
 
 
 solve_phases, solve_phases_parallel = serial_and_parallel(_solve_phases)
@@ -77,29 +83,12 @@ def _solve_phases_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
     edge-constraint update above with stiffness 1 and alpha_tilde in the denominator; as h
     shrinks the solution converges to the elastic material's instead of depending on h.
     """
-    zero = np.float32(0.0)
-    one = np.float32(1.0)
     for s in range(set_offsets.shape[0] - 1):
         for c in numba.prange(set_offsets[s], set_offsets[s + 1]):
             a = indices[c, 0]
             b = indices[c, 1]
-            hx = cur[b, 0] - cur[a, 0]
-            hy = cur[b, 1] - cur[a, 1]
-            hz = cur[b, 2] - cur[a, 2]
-            wa = cur[a, 3]
-            wb = cur[b, 3]
-            e2 = DISTANCE_EPSILON + hx * hx + hy * hy + hz * hz
-            r = rest[c]
-            er = one - r / np.sqrt(e2) if r > zero else zero
-            ex = er / (FLT_EPSILON + wa + wb + alpha_tilde[c])
-            fa = ex * wa
-            fb = ex * wb
-            cur[a, 0] += hx * fa
-            cur[a, 1] += hy * fa
-            cur[a, 2] += hz * fa
-            cur[b, 0] -= hx * fb
-            cur[b, 1] -= hy * fb
-            cur[b, 2] -= hz * fb
+            hx, hy, hz, wa, wb, er = _edge_slack(cur, a, b, rest[c])
+            _apply_edge(cur, a, b, hx, hy, hz, wa, wb, er / (FLT_EPSILON + wa + wb + alpha_tilde[c]))
 
 
 solve_xpbd, solve_xpbd_parallel = serial_and_parallel(_solve_phases_xpbd)
