@@ -79,18 +79,35 @@ solve_phases_parallel = solve_phases
 solve_xpbd_parallel = solve_xpbd
 
 
-def _edge_slack(cur, a, b, r):
-    """h = pb - pa, the two inverse masses, and the slack 1 - r / |h| (0 when r = 0)."""
-    cur = np.asarray(cur, np.float64)
-    h = cur[b, :3] - cur[a, :3]
-    er = 1.0 - r / np.sqrt(DISTANCE_EPSILON + h @ h) if r > 0 else 0.0
-    return (*h, cur[a, 3], cur[b, 3], er)
+def _largest_set(set_offsets):
+    return int(np.diff(np.asarray(set_offsets)).max(initial=0))
 
 
-def _apply_edge(cur, a, b, hx, hy, hz, wa, wb, ex):
-    """Returns cur (float64 copy) with pa += h ex wa and pb -= h ex wb."""
-    cur = np.array(cur, np.float64)
-    h = np.array([hx, hy, hz])
-    cur[a, :3] += h * ex * wa
-    cur[b, :3] -= h * ex * wb
-    return cur
+def _measure_edges(cur, indices, first, lo, hi, scratch):
+    """Returns scratch (float64 copy) with rows 0 and 1 at lo..hi set to eps + |pb - pa|^2 and
+    eps + wa + wb of constraints first+lo .. first+hi (cur: the flat (n*4,) particle view)."""
+    cur = np.asarray(cur, np.float64).reshape(-1, 4)
+    scratch = np.array(scratch, np.float64)
+    pairs = np.asarray(indices)[first + lo : first + hi]
+    h = cur[pairs[:, 1], :3] - cur[pairs[:, 0], :3]
+    scratch[0, lo:hi] = DISTANCE_EPSILON + np.einsum("ij,ij->i", h, h)
+    scratch[1, lo:hi] = FLT_EPSILON + cur[pairs[:, 0], 3] + cur[pairs[:, 1], 3]
+    return scratch
+
+
+def _move_ends(cur, indices, first, lo, hi, scratch):
+    """Returns cur (flat float64 copy) with pa += h ex wa and pb -= h ex wb, ex = scratch[2]."""
+    flat = np.array(cur, np.float64)
+    rows = flat.reshape(-1, 4)
+    pairs = np.asarray(indices)[first + lo : first + hi]
+    a, b = pairs[:, 0], pairs[:, 1]
+    h = rows[b, :3] - rows[a, :3]
+    ex = np.asarray(scratch, np.float64)[2, lo:hi]
+    np.add.at(rows[:, :3], a, h * (ex * rows[a, 3])[:, None])
+    np.add.at(rows[:, :3], b, -h * (ex * rows[b, 3])[:, None])
+    return flat
+
+
+def _edge_slack(rest, length2):
+    """1 - r / sqrt(length2), 0 when r = 0."""
+    return 1.0 - rest / np.sqrt(length2) if rest > 0 else 0.0

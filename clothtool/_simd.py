@@ -1,0 +1,137 @@
+"""Four-float SIMD values (LLVM ``<4 x float>``) for numba kernels: a particle row at a time.
+
+A particle is four float32 (x, y, z, inverse mass) in a C-contiguous (n, 4) array, 16 bytes:
+one SSE register (float64 state, the precision option, uses <4 x double>). numba has no vector types and leaves LLVM's SLP vectoriser off (it was
+switched off for miscompiling, numba PR #8852), so scalar code reading a row costs four loads
+and writing it three stores; the loop vectoriser cannot help either, because a constraint
+loop gathers and scatters rows through index arrays. These intrinsics load, combine and store
+a row as one vector, which halves the fabric kernel's instructions per constraint.
+
+Only what the kernels need: ``load4``/``store4`` on the flattened (n*4,) view at a float
+offset, lane-wise ``vadd``/``vsub``/``vmul`` (multiply-add pairs fuse, as ``fastmath=
+{"contract"}`` lets scalar code fuse), ``fill``, ``lane`` and ``keep_w``. The values never
+leave a kernel (no boxing), so a numba type with a primitive data model is all they need.
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic, models, register_model
+
+_I32 = ir.IntType(32)
+_LLVM_FLOAT = {types.float32: ir.FloatType(), types.float64: ir.DoubleType()}
+
+
+class Vec4(types.Type):
+    """Four floats of one dtype (float32: the solver's state; float64: its precision option)."""
+
+    def __init__(self, dtype):
+        self.dtype = dtype
+        super().__init__(name=f"clothtool.vec4[{dtype}]")
+
+
+@register_model(Vec4)
+class _Vec4Model(models.PrimitiveModel):
+    def __init__(self, dmm, fe_type):
+        super().__init__(dmm, fe_type, ir.VectorType(_LLVM_FLOAT[fe_type.dtype], 4))
+
+
+def _is_flat_float(array) -> bool:
+    return isinstance(array, types.Array) and array.dtype in _LLVM_FLOAT and array.ndim == 1 and array.layout == "C"
+
+
+def _row_pointer(context, builder, array_type, array, index_type, index):
+    """Address of element ``index`` of a flat float array, as a vector pointer."""
+    data = context.make_array(array_type)(context, builder, array).data
+    offset = context.cast(builder, index, index_type, types.intp)
+    vector = ir.VectorType(_LLVM_FLOAT[array_type.dtype], 4)
+    return builder.bitcast(builder.gep(data, [offset]), vector.as_pointer())
+
+
+@intrinsic
+def load4(typingctx, array, index):
+    """array[index : index + 4] as one vector (array: flat C-contiguous float32 or float64)."""
+    if not (_is_flat_float(array) and isinstance(index, types.Integer)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        pointer = _row_pointer(context, builder, signature.args[0], args[0], signature.args[1], args[1])
+        return builder.load(pointer, align=array.dtype.bitwidth // 8)
+
+    return Vec4(array.dtype)(array, index), codegen
+
+
+@intrinsic
+def store4(typingctx, array, index, value):
+    """array[index : index + 4] = value."""
+    if not (_is_flat_float(array) and isinstance(index, types.Integer) and value == Vec4(array.dtype)):
+        return None
+
+    def codegen(context, builder, signature, args):
+        pointer = _row_pointer(context, builder, signature.args[0], args[0], signature.args[1], args[1])
+        builder.store(args[2], pointer, align=array.dtype.bitwidth // 8)
+        return context.get_dummy_value()
+
+    return types.none(array, index, value), codegen
+
+
+def _lanewise(operation: str):
+    @intrinsic
+    def lanewise(typingctx, a, b):
+        if not (isinstance(a, Vec4) and a == b):
+            return None
+
+        def codegen(context, builder, signature, args):
+            # "contract" lets a multiply feeding an add become one fused multiply-add
+            return getattr(builder, operation)(args[0], args[1], flags=("contract",))
+
+        return a(a, b), codegen
+
+    lanewise.__doc__ = f"Lane-wise {operation[1:]} of two vectors."
+    return lanewise
+
+
+vadd = _lanewise("fadd")
+vsub = _lanewise("fsub")
+vmul = _lanewise("fmul")
+
+
+@intrinsic
+def fill(typingctx, like, x):
+    """A vector of like's dtype with x (converted to that dtype) in every lane."""
+    if not (isinstance(like, Vec4) and isinstance(x, (types.Float, types.Integer))):
+        return None
+
+    def codegen(context, builder, signature, args):
+        value = context.cast(builder, args[1], signature.args[1], like.dtype)
+        vector = ir.VectorType(_LLVM_FLOAT[like.dtype], 4)
+        single = builder.insert_element(ir.Constant(vector, ir.Undefined), value, ir.Constant(_I32, 0))
+        return builder.shuffle_vector(single, single, ir.Constant(ir.VectorType(_I32, 4), [0, 0, 0, 0]))
+
+    return like(like, x), codegen
+
+
+@intrinsic
+def lane(typingctx, value, k):
+    """Lane k (a constant 0-3) of a vector."""
+    if not (isinstance(value, Vec4) and isinstance(k, types.IntegerLiteral) and 0 <= k.literal_value < 4):
+        return None
+    position = k.literal_value
+
+    def codegen(context, builder, signature, args):
+        return builder.extract_element(args[0], ir.Constant(_I32, position))
+
+    return value.dtype(value, k), codegen
+
+
+@intrinsic
+def keep_w(typingctx, new, old):
+    """(new.x, new.y, new.z, old.w): a moved particle keeps its inverse mass bit for bit."""
+    if not (isinstance(new, Vec4) and new == old):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return builder.shuffle_vector(args[0], args[1], ir.Constant(ir.VectorType(_I32, 4), [0, 1, 2, 7]))
+
+    return new(new, old), codegen
