@@ -12,6 +12,7 @@ from clothtool.solver.config import SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import FrameHistory, FrameInertia, Pose, extrapolated_path
 from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
 from clothtool.solver.logstiffness import damping_scale
 from clothtool.solver.model import ClothModel
 from clothtool.solver.pipeline import build_stages
@@ -157,6 +158,9 @@ class ClothSolver:
         """Compile (or load from numba's cache) every kernel this cloth's stages use."""
         for stage in self.stages:
             stage.warm_up()
+        none = self.state.cur[:0]
+        copy_xyz(none, np.empty((0, 3), none.dtype))
+        xyz_velocity(none, none, none.dtype.type(1.0), np.empty((0, 3), np.float32))
 
     def iterate(self, iteration: Iteration) -> None:
         if self.sleep.asleep:
@@ -175,15 +179,19 @@ class ClothSolver:
     # ------------------------------------------------------------------ output
     def world_points(self) -> np.ndarray:
         """(n,3) current positions in world space (scene units), in the state's precision."""
-        points = self.state.cur[:, :3]
+        cur = self.state.cur
         if self.history is None:
-            return np.ascontiguousarray(points)
-        return self.history.now.to_world(points).astype(self.state.cur.dtype)
+            points = np.empty((cur.shape[0], 3), cur.dtype)
+            copy_xyz(cur, points)
+            return points
+        return self.history.now.to_world(cur[:, :3]).astype(cur.dtype)
 
     def world_velocities(self, h: float) -> np.ndarray:
         """f32 (n,3) velocities over the last iteration, world space, scene units per second."""
         if self.history is None:
-            return ((self.state.cur[:, :3] - self.state.prev[:, :3]) / h).astype(np.float32)
+            velocities = np.empty((self.state.cur.shape[0], 3), np.float32)
+            xyz_velocity(self.state.cur, self.state.prev, self.state.cur.dtype.type(h), velocities)
+            return velocities
         now = self.history.now.to_world(self.state.cur[:, :3])
         before = self.history.before.to_world(self.state.prev[:, :3])
         return ((now - before) / h).astype(np.float32)

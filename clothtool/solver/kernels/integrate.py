@@ -7,8 +7,10 @@ collision during the last iteration and is restored here. Pinned particles do no
 
 from __future__ import annotations
 
+import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._simd import fill, keep_w, lane, load4, store4, vadd, vmul, vsub
 
 
 @kernel
@@ -16,18 +18,20 @@ def integrate_linear(scale, bias, cur, prev):
     """x' = x + (x - x_prev) * scale + bias for every movable particle; x_prev = x.
 
     scale: damping times the time-step ratio; bias: (3,) gravity * dt^2 (plus frame terms).
+    Rows are moved as <4 x float> vectors (clothtool._simd): one load and store each.
     """
+    flat_cur = cur.reshape(-1)
+    flat_prev = prev.reshape(-1)
+    bias4 = np.zeros(4, cur.dtype)
+    bias4[:3] = bias
     for i in range(cur.shape[0]):
-        w = prev[i, 3]
-        if w > 0.0:
-            for d in range(3):
-                c = cur[i, d]
-                cur[i, d] = c + (c - prev[i, d]) * scale + bias[d]
-                prev[i, d] = c
-            cur[i, 3] = w
-        else:
-            for d in range(3):
-                prev[i, d] = cur[i, d]
+        row = 4 * np.uintp(i)
+        c = load4(flat_cur, row)
+        p = load4(flat_prev, row)
+        if lane(p, 3) > 0.0:
+            moved = vadd(vadd(c, vmul(vsub(c, p), fill(c, scale))), load4(bias4, 0))
+            store4(flat_cur, row, keep_w(moved, p))  # cur.w: the particle's own inverse mass again
+        store4(flat_prev, row, keep_w(c, p))
 
 
 @kernel(inline="always")

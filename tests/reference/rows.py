@@ -1,0 +1,17 @@
+"""Reference for clothtool.solver.kernels.rows."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def copy_xyz(rows, out):
+    """Returns rows[:, :3] in out's dtype."""
+    return np.asarray(rows)[:, :3].astype(np.asarray(out).dtype)
+
+
+def xyz_velocity(cur, prev, h, out):
+    """Returns (cur[:, :3] - prev[:, :3]) / h in out's dtype, computed in h's dtype."""
+    h = np.asarray(h)
+    delta = np.asarray(cur)[:, :3].astype(h.dtype) - np.asarray(prev)[:, :3].astype(h.dtype)
+    return (delta / h).astype(np.asarray(out).dtype)
