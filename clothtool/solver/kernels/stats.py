@@ -31,19 +31,16 @@ def motion_summary(cur, prev, masses, inv_dt):
     energy = 0.0
     bad = -1
     for i in range(cur.shape[0]):
-        finite = True
-        for d in range(3):
-            # test each coordinate: a float32 sum of finite coordinates can overflow to inf
-            if not (np.isfinite(cur[i, d]) and np.isfinite(prev[i, d])):
-                finite = False
-        if not finite:
-            if bad < 0:
-                bad = i
-            continue
         vx = (np.float64(cur[i, 0]) - np.float64(prev[i, 0])) * inv_dt
         vy = (np.float64(cur[i, 1]) - np.float64(prev[i, 1])) * inv_dt
         vz = (np.float64(cur[i, 2]) - np.float64(prev[i, 2])) * inv_dt
         speed_sqr = vx * vx + vy * vy + vz * vz
+        # Infinite or NaN exactly when one of the six coordinates is: differences of finite
+        # float32 values (< 7e38) times any sane 1/dt cannot overflow float64 when squared.
+        if not np.isfinite(speed_sqr):
+            if bad < 0:
+                bad = i
+            continue
         if speed_sqr > max_speed_sqr:
             max_speed_sqr = speed_sqr
             fastest = i
@@ -54,21 +51,29 @@ def motion_summary(cur, prev, masses, inv_dt):
 @kernel
 def tether_stretch(anchors, lengths, cur):
     """Largest tether stretch |p - anchor| / length - 1 over active tethers; 0 when no tether
-    is stretched (slack tethers do not count as negative stretch)."""
+    is stretched (slack tethers do not count as negative stretch).
+
+    The largest |d| / length is the square root of the largest |d|^2 / length^2: one division
+    per tether and a single square root (the division and square root per tether were most
+    of the stats' time)."""
     n = cur.shape[0]
-    worst = 0.0
-    for t in range(anchors.shape[0]):
-        i = t % n
-        a = anchors[t]
-        if a == i or lengths[t] <= 0:
-            continue
-        dx = np.float64(cur[a, 0] - cur[i, 0])
-        dy = np.float64(cur[a, 1] - cur[i, 1])
-        dz = np.float64(cur[a, 2] - cur[i, 2])
-        ratio = np.sqrt(dx * dx + dy * dy + dz * dz) / lengths[t] - 1.0
-        if ratio > worst:
-            worst = ratio
-    return worst
+    if n == 0:
+        return 0.0
+    flat = cur.reshape(-1)
+    worst_sqr = 1.0  # (1 + stretch)^2 of the most stretched tether; 1: none stretched
+    for s in range(anchors.shape[0] // n):
+        for i in range(n):
+            t = s * n + i
+            a = anchors[t]
+            length = np.float64(lengths[t])
+            if a == i or length <= 0.0:
+                continue
+            d = vsub(load4(flat, 4 * a), load4(flat, 4 * i))  # float32 differences, as before
+            dx = np.float64(lane(d, 0))
+            dy = np.float64(lane(d, 1))
+            dz = np.float64(lane(d, 2))
+            worst_sqr = max(worst_sqr, (dx * dx + dy * dy + dz * dz) / (length * length))
+    return np.sqrt(worst_sqr) - 1.0
 
 
 # strain_extremes runs every frame over every constraint, so it measures BLOCK constraints at a
@@ -98,7 +103,8 @@ def strain_extremes(indices, rest, cur):
         for c in range(lo, hi):
             r = rest[c]
             strain[c - lo] = np.sqrt(strain[c - lo]) / r - np.float32(1.0) if r > 0 else np.float32(0.0)
-        for i in range(hi - lo):
+        for i in range(hi - lo):  # apart from the max, so that the sum vectorises
             total += np.float64(strain[i])
+        for i in range(hi - lo):
             worst = max(worst, strain[i])
     return np.float64(worst), total
