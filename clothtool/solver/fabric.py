@@ -73,8 +73,13 @@ class FabricStage(Stage):
         else:
             self.kernel = solve_phases_parallel if big else solve_phases
             self.params = np.zeros((len(model.phase_labels), 4), np.float32)
+        self.params_h = None  # the iteration length the parameters were converted for
 
     def begin_frame(self, plan: FramePlan) -> None:
+        # Frames of one bake usually share their iteration length: convert only when it changes.
+        if plan.h == self.params_h:
+            return
+        self.params_h = plan.h
         if self.xpbd:
             self.alpha_tilde[:] = np.minimum(self.compliance / (plan.h * plan.h), np.finfo(np.float32).max)
             return

@@ -62,9 +62,10 @@ def constrain_separation(centers, radii, cur):
             cur[i, 2] += dz * slack
 
 
-# Tethers are solved for BLOCK particles at a time in three passes (measure, slack, move): the
-# square root and division of the middle pass vectorise over contiguous scratch, which a
-# particle-at-a-time loop cannot. Anchors are pinned, so no pass sees another's writes.
+# Tethers are solved for TETHER_BLOCK particles at a time, slot by slot in three passes
+# (measure, slack, accumulate the pull), then the block moves: the square root and division
+# of the slack pass vectorise over contiguous scratch, which a particle-at-a-time loop cannot.
+# Anchors are pinned, so no pass sees another's writes.
 TETHER_BLOCK = 256
 
 
@@ -80,25 +81,27 @@ def constrain_tethers(anchors, lengths, scale, stiffness, cur):
         return
     k = anchors.shape[0] // n
     flat = cur.reshape(-1)
-    slack = np.empty((k, TETHER_BLOCK), cur.dtype)
+    slack = np.empty(TETHER_BLOCK, cur.dtype)
+    pull = np.empty(4 * TETHER_BLOCK, cur.dtype)  # per particle of the block: sum of delta * slack
     zero = np.float32(0.0)
     one = np.float32(1.0)
     for block in range((n + TETHER_BLOCK - 1) // TETHER_BLOCK):
         # unsigned indices: no negative-index wraparound code, which blocks vectorisation
         lo = np.uintp(block * TETHER_BLOCK)
         hi = np.uintp(min(block * TETHER_BLOCK + TETHER_BLOCK, n))
+        pull[:] = 0.0
         for s in range(k):
             slot = np.uintp(s * n)
             for i in range(lo, hi):
-                h = vsub(load4(flat, 4 * anchors[slot + i]), load4(flat, 4 * i))
-                h2 = vmul(h, h)
-                slack[s, i - lo] = DISTANCE_EPSILON + lane(h2, 0) + lane(h2, 1) + lane(h2, 2)
+                delta = vsub(load4(flat, 4 * anchors[slot + i]), load4(flat, 4 * i))
+                delta2 = vmul(delta, delta)
+                slack[i - lo] = DISTANCE_EPSILON + lane(delta2, 0) + lane(delta2, 1) + lane(delta2, 2)
             for i in range(lo, hi):
-                slack[s, i - lo] = max(one - lengths[slot + i] * scale / np.sqrt(slack[s, i - lo]), zero)
+                slack[i - lo] = max(one - lengths[slot + i] * scale / np.sqrt(slack[i - lo]), zero)
+            for i in range(lo, hi):
+                delta = vsub(load4(flat, 4 * anchors[slot + i]), load4(flat, 4 * i))
+                row = 4 * (i - lo)
+                store4(pull, row, vadd(load4(pull, row), vmul(delta, fill(delta, slack[i - lo]))))
         for i in range(lo, hi):
             p = load4(flat, 4 * i)
-            offset = fill(p, 0)
-            for s in range(k):
-                h = vsub(load4(flat, 4 * anchors[np.uintp(s * n) + i]), p)
-                offset = vadd(offset, vmul(h, fill(h, slack[s, i - lo])))
-            store4(flat, 4 * i, keep_w(vadd(p, vmul(offset, fill(p, stiffness))), p))
+            store4(flat, 4 * i, keep_w(vadd(p, vmul(load4(pull, 4 * (i - lo)), fill(p, stiffness))), p))
