@@ -31,7 +31,7 @@ frames = [0, {frames}]
 [solver]
 preset = "production"
 frequency = 300.0
-parallel_threshold = {threshold}
+fabric_parallel_threshold = {threshold}
 [output]
 attributes = []
 [cloth.sheet]
@@ -41,7 +41,7 @@ material = {{ preset = "cotton", drag_coefficient = 0.0, lift_coefficient = 0.0 
 """
 
 
-def scene_for(n: int, frames: int, folder: Path, threshold: int = 6000):
+def scene_for(n: int, frames: int, folder: Path, threshold: int = 20000):
     spacing = 1.0 / (n - 1)
     mesh = grid(n, n, spacing)
     pins = folder / "corners.txt"
@@ -58,13 +58,13 @@ def main() -> None:
     parser.add_argument("--sizes", default="32,64,128,255")
     parser.add_argument("--frames", type=int, default=200)
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--parallel-threshold", type=int, default=6000,
-                        help="sets of at least this many constraints use all cores (solver.parallel_threshold)")
+    parser.add_argument("--fabric-parallel-threshold", type=int, default=20000,
+                        help="sets of at least this many constraints use all cores (solver.fabric_parallel_threshold)")
     args = parser.parse_args()
     print(f"{'N':>5} {'particles':>9} {'ms/frame':>9} {'cpu ms/f':>9} {'Mpart-it/s':>10}  stages (ms/frame)")
     for n in (int(s) for s in args.sizes.split(",")):
         with tempfile.TemporaryDirectory() as tmp:
-            scene = scene_for(n, args.frames, Path(tmp), args.parallel_threshold)
+            scene = scene_for(n, args.frames, Path(tmp), args.fabric_parallel_threshold)
             runs = [bake(scene, "null") for _ in range(args.repeats)]
         runs.sort(key=lambda r: r.simulation_s)
         median = runs[len(runs) // 2]

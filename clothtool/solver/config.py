@@ -106,7 +106,11 @@ class SolverConfig:
     stiffness_mode: "nvcloth" (log-space stiffness, as NvCloth) or "xpbd" (compliance from
         the material's physical moduli; converges with frequency).
     integrator: "pbd" (NvCloth's position-based solver), "implicit" or "explicit".
-    parallel_threshold: sets with at least this many constraints are solved on all cores.
+    parallel_threshold: collision, self-collision and the other integrators' work over at
+        least this many particles or constraints runs on all cores.
+    fabric_parallel_threshold: the position-based fabric's sets of at least this many
+        constraints are solved on all cores (the kernel does ~3.5 ns per constraint, so a set
+        must be large for two threads to beat one). Either way the bits are identical.
     precision: "float32" (production) or "float64" particle state (study references).
     max_speed: a particle faster than this (m/s) marks the bake unstable.
     sleep_threshold: m/s below which a cloth counts as still (0 disables sleeping).
@@ -126,6 +130,9 @@ class SolverConfig:
     integrator: Literal["pbd", "implicit", "explicit"] = "pbd"
     precision: Literal["float32", "float64"] = "float32"
     parallel_threshold: int = 6000
+    # A 128^2 cloth's sets (~8000 constraints) solve faster on one core than on two; a 255^2
+    # cloth's (~32000) gain 25% wall time (python benchmarks/bake.py --fabric-parallel-threshold).
+    fabric_parallel_threshold: int = 20000
     max_speed: float = 200.0
     sleep_threshold: float = 0.0
     sleep_test_interval: float = 0.1
@@ -148,8 +155,9 @@ class SolverConfig:
             raise PresetError(f"{where}: key 'max_speed' must be positive")
         if self.sleep_threshold < 0 or self.sleep_test_interval <= 0 or self.sleep_after_count < 1:
             raise PresetError(f"{where}: sleep_threshold >= 0, sleep_test_interval > 0 and sleep_after_count >= 1 are required")
-        if self.parallel_threshold < 1:
-            raise PresetError(f"{where}: key 'parallel_threshold' must be at least 1")
+        for key in ("parallel_threshold", "fabric_parallel_threshold"):
+            if getattr(self, key) < 1:
+                raise PresetError(f"{where}: key '{key}' must be at least 1")
         if not self.cg_tolerance > 0 or self.cg_max_iterations < 1:
             raise PresetError(f"{where}: cg_tolerance must be positive and cg_max_iterations at least 1")
 

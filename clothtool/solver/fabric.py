@@ -63,7 +63,7 @@ class FabricStage(Stage):
         model = solver.model
         set_sizes = np.diff(model.set_offsets)
         # thread start-up costs more than it saves on small sets; results are identical
-        big = bool(set_sizes.size and set_sizes.max() >= solver.config.parallel_threshold)
+        big = bool(set_sizes.size and set_sizes.max() >= solver.config.fabric_parallel_threshold)
         self.xpbd = solver.config.stiffness_mode == "xpbd"
         if self.xpbd:
             self.kernel = solve_xpbd_parallel if big else solve_xpbd
