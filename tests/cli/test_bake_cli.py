@@ -150,6 +150,7 @@ def bad_scene(folder: Path, text: str) -> Path:
         (SCENE.replace("[solver]", "[solver]\nfrequncy = 10.0"), "unknown key 'frequncy'; allowed keys: frequency"),
         (SCENE + "\n[wheather]\nx = 1\n", "unknown top-level key 'wheather'"),
         (SCENE.replace("[output]", "[output]\ncompression = \"zip\""), "compression"),
+        (SCENE.replace("[solver]", "[solver]\nfabric_parallel_threshold = 0"), "key 'fabric_parallel_threshold' must be at least 1"),
     ],
 )
 def test_bad_scene_gives_one_line_exit_1_and_writes_nothing(scene_dir, out_dir, text, message):
