@@ -1,16 +1,19 @@
 """Four-float SIMD values (LLVM ``<4 x float>``) for numba kernels: a particle row at a time.
 
 A particle is four float32 (x, y, z, inverse mass) in a C-contiguous (n, 4) array, 16 bytes:
-one SSE register (float64 state, the precision option, uses <4 x double>). numba has no vector types and leaves LLVM's SLP vectoriser off (it was
-switched off for miscompiling, numba PR #8852), so scalar code reading a row costs four loads
-and writing it three stores; the loop vectoriser cannot help either, because a constraint
-loop gathers and scatters rows through index arrays. These intrinsics load, combine and store
-a row as one vector, which halves the fabric kernel's instructions per constraint.
+one SSE register (float64 state, the precision option, uses <4 x double>). numba has no
+vector types and leaves LLVM's SLP vectoriser off (it was switched off for miscompiling,
+numba PR #8852), so scalar code reading a row costs four loads and writing it three stores;
+the loop vectoriser cannot help either, because a constraint loop gathers and scatters rows
+through index arrays. These intrinsics load, combine and store a row as one vector, which
+halves the fabric kernel's instructions per constraint.
 
 Only what the kernels need: ``load4``/``store4`` on the flattened (n*4,) view at a float
 offset, lane-wise ``vadd``/``vsub``/``vmul`` (multiply-add pairs fuse, as ``fastmath=
-{"contract"}`` lets scalar code fuse), ``fill``, ``lane`` and ``keep_w``. The values never
-leave a kernel (no boxing), so a numba type with a primitive data model is all they need.
+{"contract"}`` lets scalar code fuse), ``fill``, ``lane``, ``keep_w``, and ``transpose4`` /
+``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once).
+The values never leave a kernel (no boxing), so a numba type with a primitive data model is
+all they need.
 """
 
 from __future__ import annotations
@@ -135,3 +138,44 @@ def keep_w(typingctx, new, old):
         return builder.shuffle_vector(args[0], args[1], ir.Constant(ir.VectorType(_I32, 4), [0, 1, 2, 7]))
 
     return new(new, old), codegen
+
+
+def _shuffle(builder, a, b, mask):
+    return builder.shuffle_vector(a, b, ir.Constant(ir.VectorType(_I32, 4), mask))
+
+
+@intrinsic
+def transpose4(typingctx, r0, r1, r2, r3):
+    """Rows to columns: the x, y, z and w lanes of four vectors as four vectors."""
+    if not (isinstance(r0, Vec4) and r0 == r1 == r2 == r3):
+        return None
+    result = types.UniTuple(r0, 4)
+
+    def codegen(context, builder, signature, args):
+        low01 = _shuffle(builder, args[0], args[1], [0, 4, 1, 5])  # r0.x r1.x r0.y r1.y
+        high01 = _shuffle(builder, args[0], args[1], [2, 6, 3, 7])  # r0.z r1.z r0.w r1.w
+        low23 = _shuffle(builder, args[2], args[3], [0, 4, 1, 5])
+        high23 = _shuffle(builder, args[2], args[3], [2, 6, 3, 7])
+        columns = [
+            _shuffle(builder, low01, low23, [0, 1, 4, 5]),
+            _shuffle(builder, low01, low23, [2, 3, 6, 7]),
+            _shuffle(builder, high01, high23, [0, 1, 4, 5]),
+            _shuffle(builder, high01, high23, [2, 3, 6, 7]),
+        ]
+        return context.make_tuple(builder, result, columns)
+
+    return result(r0, r1, r2, r3), codegen
+
+
+@intrinsic
+def w_lanes(typingctx, r0, r1, r2, r3):
+    """(r0.w, r1.w, r2.w, r3.w): the inverse masses of four particles."""
+    if not (isinstance(r0, Vec4) and r0 == r1 == r2 == r3):
+        return None
+
+    def codegen(context, builder, signature, args):
+        w01 = _shuffle(builder, args[0], args[1], [3, 7, 3, 7])
+        w23 = _shuffle(builder, args[2], args[3], [3, 7, 3, 7])
+        return _shuffle(builder, w01, w23, [0, 1, 4, 5])
+
+    return r0(r0, r1, r2, r3), codegen

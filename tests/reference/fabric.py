@@ -83,28 +83,28 @@ def _largest_set(set_offsets):
     return int(np.diff(np.asarray(set_offsets)).max(initial=0))
 
 
-def _measure_edges(cur, indices, first, lo, hi, scratch):
-    """Returns scratch (float64 copy) with rows 0 and 1 at lo..hi set to eps + |pb - pa|^2 and
-    eps + wa + wb of constraints first+lo .. first+hi (cur: the flat (n*4,) particle view)."""
-    cur = np.asarray(cur, np.float64).reshape(-1, 4)
-    scratch = np.array(scratch, np.float64)
+def _measure_edges(cur, indices, first, lo, hi, length2, wa, wb):
+    """Returns (length2, wa, wb), float64 copies with lo..hi set to eps + |pb - pa|^2 and the
+    inverse masses of constraints first+lo .. first+hi (cur: the flat (n*4,) particle view)."""
+    rows = np.asarray(cur, np.float64).reshape(-1, 4)
+    length2, wa, wb = (np.array(x, np.float64) for x in (length2, wa, wb))
     pairs = np.asarray(indices)[first + lo : first + hi]
-    h = cur[pairs[:, 1], :3] - cur[pairs[:, 0], :3]
-    scratch[0, lo:hi] = DISTANCE_EPSILON + np.einsum("ij,ij->i", h, h)
-    scratch[1, lo:hi] = FLT_EPSILON + cur[pairs[:, 0], 3] + cur[pairs[:, 1], 3]
-    return scratch
+    h = rows[pairs[:, 1], :3] - rows[pairs[:, 0], :3]
+    length2[lo:hi] = DISTANCE_EPSILON + np.einsum("ij,ij->i", h, h)
+    wa[lo:hi] = rows[pairs[:, 0], 3]
+    wb[lo:hi] = rows[pairs[:, 1], 3]
+    return length2, wa, wb
 
 
-def _move_ends(cur, indices, first, lo, hi, scratch):
-    """Returns cur (flat float64 copy) with pa += h ex wa and pb -= h ex wb, ex = scratch[2]."""
+def _move_ends(cur, indices, first, lo, hi, fa, fb):
+    """Returns cur (flat float64 copy) with pa += h fa and pb -= h fb, h = pb - pa."""
     flat = np.array(cur, np.float64)
     rows = flat.reshape(-1, 4)
     pairs = np.asarray(indices)[first + lo : first + hi]
     a, b = pairs[:, 0], pairs[:, 1]
     h = rows[b, :3] - rows[a, :3]
-    ex = np.asarray(scratch, np.float64)[2, lo:hi]
-    np.add.at(rows[:, :3], a, h * (ex * rows[a, 3])[:, None])
-    np.add.at(rows[:, :3], b, -h * (ex * rows[b, 3])[:, None])
+    np.add.at(rows[:, :3], a, h * np.asarray(fa, np.float64)[lo:hi, None])
+    np.add.at(rows[:, :3], b, -h * np.asarray(fb, np.float64)[lo:hi, None])
     return flat
 
 

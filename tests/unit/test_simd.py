@@ -6,7 +6,7 @@ import numba
 import numpy as np
 import pytest
 
-from clothtool._simd import fill, keep_w, lane, load4, store4, vadd, vmul, vsub
+from clothtool._simd import fill, keep_w, lane, load4, store4, transpose4, vadd, vmul, vsub, w_lanes
 
 
 @numba.njit
@@ -63,3 +63,24 @@ def test_wrong_argument_types_do_not_compile():
 
     with pytest.raises(numba.core.errors.TypingError):
         mixed(np.zeros(4), np.zeros(4, np.float32))
+
+
+@numba.njit
+def _columns(flat, out):
+    """out rows 0-3: the columns of the first four rows; row 4: their w lanes."""
+    r0, r1, r2, r3 = load4(flat, 0), load4(flat, 4), load4(flat, 8), load4(flat, 12)
+    x, y, z, w = transpose4(r0, r1, r2, r3)
+    store4(out, 0, x)
+    store4(out, 4, y)
+    store4(out, 8, z)
+    store4(out, 12, w)
+    store4(out, 16, w_lanes(r0, r1, r2, r3))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_transpose_and_w_lanes(dtype):
+    rows = np.arange(16, dtype=dtype).reshape(4, 4) * dtype(1.5) - dtype(3)
+    out = np.zeros(20, dtype)
+    _columns(rows.reshape(-1), out)
+    np.testing.assert_array_equal(out[:16].reshape(4, 4), rows.T)
+    np.testing.assert_array_equal(out[16:], rows[:, 3])

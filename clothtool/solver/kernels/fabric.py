@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from clothtool._jit import kernel, serial_and_parallel
-from clothtool._simd import fill, keep_w, lane, load4, store4, vadd, vmul, vsub
+from clothtool._simd import fill, keep_w, lane, load4, store4, transpose4, vadd, vmul, vsub, w_lanes
 
 FLT_EPSILON = np.float32(1.1920929e-07)
 # Guards sqrt and division when two particles coincide. NvCloth adds FLT_EPSILON here, which
@@ -31,13 +31,17 @@ DISTANCE_EPSILON = np.float32(1e-30)
 
 
 # A set is solved in blocks of BLOCK constraints, in three passes: measure every edge of the
-# block (loads only), compute every correction (arithmetic over contiguous arrays, which LLVM
-# vectorises eight constraints wide: the square root and divisions that bound a one-constraint-
-# at-a-time loop), then move every pair of ends. Inside a set no movable particle appears
-# twice, so measuring all before moving any changes nothing (a pinned particle, w = 0, shared
-# by two constraints is written back unchanged). The scratch rows of a block (3 KB) stay in
-# L1 between its passes. Blocks are the parallel kernels' unit of work: a constraint's
-# arithmetic does not depend on which thread runs its block, so results are bit-identical.
+# block (four constraints at a time: their rows transposed so that |h|^2 is three lane-wise
+# multiply-adds), compute every correction (arithmetic over contiguous arrays, which LLVM
+# vectorises eight constraints wide: the square root and divisions that bound a
+# one-constraint-at-a-time loop), then move every pair of ends. Inside a set no movable
+# particle appears twice, so measuring all before moving any changes nothing (a pinned
+# particle, w = 0, shared by two constraints is written back unchanged). The scratch of a
+# block (3 KB) stays in L1 between its passes. Blocks are the parallel kernels' unit of work
+# and start at multiples of BLOCK from their set's start: which constraints are measured four
+# at a time does not depend on the thread count, so results are bit-identical.
+# All indices are unsigned (np.uintp): numba then emits no negative-index wraparound code,
+# which would keep LLVM from vectorising the loops over contiguous arrays.
 BLOCK = 256
 
 
@@ -50,24 +54,45 @@ def _largest_set(set_offsets):
 
 
 @kernel(inline="always")
-def _measure_edges(cur, indices, first, lo, hi, scratch):
-    """Constraints first+lo .. first+hi of a set: scratch[0] = eps + |pb - pa|^2 and
-    scratch[1] = eps + wa + wb, at lo .. hi. ``cur`` is the flat (n*4,) view of the particles.
-    All indices are unsigned (np.uintp): numba then emits no negative-index wraparound, which
-    would keep LLVM from vectorising the loops over contiguous rows."""
-    for j in range(lo, hi):
+def _measure_edges(cur, indices, first, lo, hi, length2, wa, wb):
+    """Constraints first+lo .. first+hi of a set: length2 = eps + |pb - pa|^2 and the two
+    inverse masses, at lo .. hi. ``cur`` is the flat (n*4,) view of the particles."""
+    one = np.uintp(1)
+    two = np.uintp(2)
+    three = np.uintp(3)
+    four = np.uintp(4)
+    quads_end = lo + (hi - lo) // four * four
+    for quad in range(lo // four, quads_end // four):
+        j = four * quad
+        c = first + j
+        a0 = load4(cur, 4 * indices[c, 0])
+        b0 = load4(cur, 4 * indices[c, 1])
+        a1 = load4(cur, 4 * indices[c + one, 0])
+        b1 = load4(cur, 4 * indices[c + one, 1])
+        a2 = load4(cur, 4 * indices[c + two, 0])
+        b2 = load4(cur, 4 * indices[c + two, 1])
+        a3 = load4(cur, 4 * indices[c + three, 0])
+        b3 = load4(cur, 4 * indices[c + three, 1])
+        hx, hy, hz, _ = transpose4(vsub(b0, a0), vsub(b1, a1), vsub(b2, a2), vsub(b3, a3))
+        store4(length2, j, vadd(vadd(vadd(fill(hx, DISTANCE_EPSILON), vmul(hx, hx)), vmul(hy, hy)), vmul(hz, hz)))
+        store4(wa, j, w_lanes(a0, a1, a2, a3))
+        store4(wb, j, w_lanes(b0, b1, b2, b3))
+    for j in range(quads_end, hi):
         c = first + j
         pa = load4(cur, 4 * indices[c, 0])
         pb = load4(cur, 4 * indices[c, 1])
         h = vsub(pb, pa)
-        h2 = vmul(h, h)
-        scratch[0, j] = DISTANCE_EPSILON + lane(h2, 0) + lane(h2, 1) + lane(h2, 2)
-        scratch[1, j] = FLT_EPSILON + lane(pa, 3) + lane(pb, 3)
+        hx = lane(h, 0)
+        hy = lane(h, 1)
+        hz = lane(h, 2)
+        length2[j] = DISTANCE_EPSILON + hx * hx + hy * hy + hz * hz  # the quads' multiply-add chain
+        wa[j] = lane(pa, 3)
+        wb[j] = lane(pb, 3)
 
 
 @kernel(inline="always")
-def _move_ends(cur, indices, first, lo, hi, scratch):
-    """pa += h ex wa; pb -= h ex wb with ex = scratch[2] (the inverse masses are kept)."""
+def _move_ends(cur, indices, first, lo, hi, fa, fb):
+    """pa += h fa; pb -= h fb for h = pb - pa (the inverse masses are kept)."""
     for j in range(lo, hi):
         c = first + j
         a = 4 * indices[c, 0]
@@ -75,9 +100,8 @@ def _move_ends(cur, indices, first, lo, hi, scratch):
         pa = load4(cur, a)
         pb = load4(cur, b)
         h = vsub(pb, pa)
-        ex = scratch[2, j]
-        moved_a = keep_w(vadd(pa, vmul(h, fill(h, ex * lane(pa, 3)))), pa)
-        moved_b = keep_w(vsub(pb, vmul(h, fill(h, ex * lane(pb, 3)))), pb)
+        moved_a = keep_w(vadd(pa, vmul(h, fill(h, fa[j]))), pa)
+        moved_b = keep_w(vsub(pb, vmul(h, fill(h, fb[j]))), pb)
         store4(cur, a, moved_a)
         store4(cur, b, moved_b)
 
@@ -92,6 +116,9 @@ def _solve_phases(indices, rest, constraint_stiffness, set_offsets, phase_set_of
     """phase_params (p,4): per phase (stiffness, multiplier, compression term, stretch term)."""
     flat = cur.reshape(-1)
     scratch = np.empty((3, _largest_set(set_offsets)), cur.dtype)
+    length2 = scratch[0]
+    wa = scratch[1]  # the inverse masses, then the per-end factors ex * w
+    wb = scratch[2]
     for p in range(phase_params.shape[0]):
         k = phase_params[p, 0]
         m = phase_params[p, 1]
@@ -104,14 +131,16 @@ def _solve_phases(indices, rest, constraint_stiffness, set_offsets, phase_set_of
             for block in numba.prange((size + BLOCK - 1) // BLOCK):
                 lo = np.uintp(block * BLOCK)
                 hi = np.uintp(min(block * BLOCK + BLOCK, size))
-                _measure_edges(flat, indices, first, lo, hi, scratch)
+                _measure_edges(flat, indices, first, lo, hi, length2, wa, wb)
                 for j in range(lo, hi):
                     c = first + j
-                    er = _edge_slack(rest[c], scratch[0, j])
+                    er = _edge_slack(rest[c], length2[j])
                     if use_multiplier:
                         er -= m * max(lo_limit, min(er, hi_limit))
-                    scratch[2, j] = er * k * constraint_stiffness[c] / scratch[1, j]
-                _move_ends(flat, indices, first, lo, hi, scratch)
+                    ex = er * k * constraint_stiffness[c] / (FLT_EPSILON + wa[j] + wb[j])
+                    wa[j] *= ex
+                    wb[j] *= ex
+                _move_ends(flat, indices, first, lo, hi, wa, wb)
 
 
 solve_phases, solve_phases_parallel = serial_and_parallel(_solve_phases)
@@ -127,17 +156,22 @@ def _solve_phases_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
     """
     flat = cur.reshape(-1)
     scratch = np.empty((3, _largest_set(set_offsets)), cur.dtype)
+    length2 = scratch[0]
+    wa = scratch[1]
+    wb = scratch[2]
     for s in range(set_offsets.shape[0] - 1):
         first = np.uintp(set_offsets[s])
         size = set_offsets[s + 1] - set_offsets[s]
         for block in numba.prange((size + BLOCK - 1) // BLOCK):
             lo = np.uintp(block * BLOCK)
             hi = np.uintp(min(block * BLOCK + BLOCK, size))
-            _measure_edges(flat, indices, first, lo, hi, scratch)
+            _measure_edges(flat, indices, first, lo, hi, length2, wa, wb)
             for j in range(lo, hi):
                 c = first + j
-                scratch[2, j] = _edge_slack(rest[c], scratch[0, j]) / (scratch[1, j] + alpha_tilde[c])
-            _move_ends(flat, indices, first, lo, hi, scratch)
+                ex = _edge_slack(rest[c], length2[j]) / (FLT_EPSILON + wa[j] + wb[j] + alpha_tilde[c])
+                wa[j] *= ex
+                wb[j] *= ex
+            _move_ends(flat, indices, first, lo, hi, wa, wb)
 
 
 solve_xpbd, solve_xpbd_parallel = serial_and_parallel(_solve_phases_xpbd)
