@@ -132,10 +132,17 @@ def _contacts(p, q, shapes_group, mesh, frame):
     return found
 
 
-def _discrete_contacts(px, py, pz, qx, qy, qz, shapes_group, mesh, frame, spheres, capsules, convexes, meshes):
-    """(count, push sum, surface-motion sum, budget sum) of every contact of the point; the
-    flags only skip kinds that are absent, so they change nothing here."""
-    return _accumulate(_contacts(np.array([px, py, pz], float), np.array([qx, qy, qz], float), shapes_group, mesh, frame))
+def _add_contacts(total, part):
+    """Elementwise sum of two contact summaries."""
+    return tuple(t + q for t, q in zip(total, part))
+
+
+def _mesh_summary(found):
+    """mesh_contact's (hit, push xyz, surface motion xyz, mu) as a contact summary."""
+    hit, *rest = found
+    if not hit:
+        return (0,) + (0.0,) * 7
+    return (1, *rest[:6], rest[6] * float(np.linalg.norm(rest[0:3])))
 
 
 def _resolve(p, q, found):
