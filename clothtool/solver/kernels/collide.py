@@ -60,7 +60,7 @@ def _unit(x, y, z):
     return x * inv, y * inv, z * inv
 
 
-@kernel
+@kernel(inline="always")
 def continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data):
     """(moved, x, y, z): where the particle moving q -> p ends after continuous collision:
     p itself, or the end pose's surface point where it hit the collider with the earliest
@@ -112,7 +112,7 @@ def continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data):
     return best <= one, rx, ry, rz
 
 
-@kernel
+@kernel(inline="always")
 def sphere_contacts(px, py, pz, sphere_data):
     """Contacts of the point p with the spheres: (count, push-out sum xyz, surface
     displacement sum xyz, sum of friction * |push-out|)."""
@@ -134,7 +134,7 @@ def sphere_contacts(px, py, pz, sphere_data):
     return count, dx, dy, dz, sx, sy, sz, budget
 
 
-@kernel
+@kernel(inline="always")
 def capsule_contacts(px, py, pz, capsule_data):
     """Contacts of the point p with the capsules, as sphere_contacts; the surface displacement
     is the end spheres' displacements interpolated at the contact's sigma."""
@@ -172,7 +172,7 @@ def frame_motion(frame, x, y, z):
     return np.float32(x - lx), np.float32(y - ly), np.float32(z - lz)
 
 
-@kernel
+@kernel(inline="always")
 def convex_contacts(px, py, pz, planes, offsets, convex_data, frame):
     """Contacts of the point p with the convexes, as sphere_contacts; the surface point moves
     with the world (frame_motion) plus the convex's own shift."""

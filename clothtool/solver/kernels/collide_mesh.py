@@ -280,7 +280,7 @@ def to_world(frame, end, x, y, z):
     return wx, wy, wz
 
 
-@kernel
+@kernel(inline="always")
 def mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame):
     """The mesh contact of the particle moving q -> p (local frame) with the largest push-out:
     (hit, dx, dy, dz, sx, sy, sz, friction), s the surface's displacement over the iteration at
