@@ -1,12 +1,14 @@
 """Bake speed for N x N hanging cloths (issue 3's benchmark scene).
 
-    python benchmarks/bake.py [--sizes 32,64,128,255] [--frames 200] [--repeats 3]
+    python benchmarks/bake.py [--sizes 32,64,128,255] [--frames 200] [--repeats 3] [--plot FILE]
 
 Each cloth is 1 m across, pinned at its two top corners, with geodesic tethers, cotton
 without air drag (as NvCloth's scene), 300 Hz solver frequency at 60 fps (5 iterations per
 frame) and a null output. Prints the
 median over the repeats of ms per frame (wall and CPU), particle-iterations per second, and
 the stage breakdown of the median run. JIT compilation is excluded (warm-up is timed apart).
+``--plot`` writes the CPU time per frame of each size, split by stage, as a bar chart (PNG
+or SVG by the suffix), with NvCloth's figure and the goal at 128^2 marked.
 The native NvCloth CPU solver's reference figure for 128^2 on this machine class is 1.3 ms
 CPU per frame; the goal is within 2x of it.
 """
@@ -23,6 +25,8 @@ from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
 from clothtool.mesh.shapes import grid
 from clothtool.scene.scene import load_scene
+
+NVCLOTH_128_CPU_MS = 1.3  # NvCloth's native CPU solver, 128^2, this machine class
 
 SCENE = """
 [scene]
@@ -60,7 +64,9 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--fabric-parallel-threshold", type=int, default=20000,
                         help="sets of at least this many constraints use all cores (solver.fabric_parallel_threshold)")
+    parser.add_argument("--plot", type=Path, help="write the stage breakdown chart here (.png or .svg)")
     args = parser.parse_args()
+    rows = []
     print(f"{'N':>5} {'particles':>9} {'ms/frame':>9} {'cpu ms/f':>9} {'Mpart-it/s':>10}  stages (ms/frame)")
     for n in (int(s) for s in args.sizes.split(",")):
         with tempfile.TemporaryDirectory() as tmp:
@@ -77,6 +83,41 @@ def main() -> None:
             f"{row['stage']}={row['per_frame_ms']:.3f}" for row in report["profile"] if row["stage"] != "jit warm-up"
         )
         print(f"{n:>5} {n * n:>9} {wall_ms:>9.3f} {cpu_ms:>9.3f} {rate:>10.2f}  {stages}", flush=True)
+        rows.append((n, cpu_ms, {row["stage"]: row["per_frame_ms"] for row in report["profile"] if row["stage"] != "jit warm-up"}))
+    if args.plot:
+        plot(rows, args.plot)
+
+
+def plot(rows, path: Path) -> None:
+    """Left: CPU ms per frame against particles (log-log) with NvCloth's figure and the goal at
+    128^2; right: each stage's share of the frame per size."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figure, (speed, shares) = plt.subplots(1, 2, figsize=(10, 4))
+    particles = [n * n for n, _, _ in rows]
+    speed.loglog(particles, [cpu for _, cpu, _ in rows], "o-", label="clothtool (CPU)")
+    speed.loglog([128 * 128], [NVCLOTH_128_CPU_MS], "k*", markersize=10, label="NvCloth native, 128^2")
+    speed.loglog([128 * 128], [2 * NVCLOTH_128_CPU_MS], "r_", markersize=14, mew=2, label="goal: 2x NvCloth")
+    speed.set_xlabel("particles")
+    speed.set_ylabel("CPU ms per frame")
+    speed.legend(fontsize=8)
+    speed.grid(True, which="both", alpha=0.3)
+    stages = sorted({stage for _, _, split in rows for stage in split}, key=lambda st: -max(r[2].get(st, 0.0) for r in rows))
+    labels = [f"{n}^2" for n, _, _ in rows]
+    bottom = [0.0] * len(rows)
+    for stage in stages:
+        share = [100.0 * split.get(stage, 0.0) / sum(split.values()) for _, _, split in rows]
+        shares.bar(labels, share, bottom=bottom, label=stage)
+        bottom = [b + h for b, h in zip(bottom, share)]
+    shares.set_ylabel("% of the frame's stage time")
+    shares.legend(fontsize=8, loc="lower right")
+    figure.suptitle("clothtool bake: N x N hanging cloth, 300 Hz, 60 fps, null output (median run)")
+    figure.tight_layout()
+    figure.savefig(path, metadata={"Date": None} if path.suffix == ".svg" else {"Software": None})
+    plt.close(figure)
 
 
 if __name__ == "__main__":
