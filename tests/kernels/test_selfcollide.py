@@ -168,3 +168,19 @@ def test_transform_points_matches_reference():
         dst = np.zeros_like(src)
         transform_points(src, matrix, offset, w_scale, dst)
         assert_close(dst, ref.transform_points(src, matrix, offset, w_scale), 16 * U * 4, "dst")
+
+
+def test_neighbour_cells_across_the_last_bucket():
+    """Two points in cells x = 3 and x = 4 with 4 buckets: the x-pair of cells is buckets 3
+    and 0, so the query's run wraps around; the pair must still meet and be pushed apart."""
+    distances = f32([0.1])
+    cell = 0.2  # cells twice the distance
+    points = f32([[3.9 * cell, 0.6 * cell, 0.6 * cell, 1.0], [4.1 * cell, 0.6 * cell, 0.6 * cell, 1.0]])
+    rest = f32([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])  # far apart at rest: the pair counts
+    segment = np.zeros(2, np.int32)
+    assert grid_buffers(2)[0].shape[0] - 1 == 4 and ref._bucket(3, 0, 0, 3) == 3 and ref._bucket(4, 0, 0, 3) == 0
+    for kernel in (collide_points, collide_points_parallel):
+        got = collide(kernel, points, rest, segment, distances, F32(1.0))
+        want = collide(None, points, rest, segment, distances, F32(1.0), reference=True)
+        assert_close(got, want, 8 * U, "positions")
+        assert abs((got[1, 0] - got[0, 0]) - 0.1) < 1e-6  # pushed out to the distance, half each

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 CELL_LIMIT = 1.0e9
-HASH = (73856093, 19349663, 83492791)
+HASH = (1, 19349663, 83492791)
 
 
 def transform_points(src, matrix, offset, w_scale, dst=None):
@@ -34,8 +34,9 @@ def _cell_coordinate(x, inv_cell):
 
 
 def _bucket(cx, cy, cz, mask):
-    """The spatial hash (Teschner et al. 2003) of a cell, masked to the bucket count."""
-    h = (np.int64(cx) * HASH[0]) ^ (np.int64(cy) * HASH[1]) ^ (np.int64(cz) * HASH[2])
+    """A cell's bucket: cx + cy Hy + cz Hz masked to the bucket count (cells next to each
+    other along x fall in consecutive buckets)."""
+    h = np.int64(cx) * HASH[0] + np.int64(cy) * HASH[1] + np.int64(cz) * HASH[2]
     return h & np.int64(mask)
 
 
