@@ -129,6 +129,8 @@ def _collide_points(
     half = np.float32(0.5)
     mask = np.int64(bucket_start.shape[0] - 2)
     own = cur.shape[0]
+    one_segment = segment_distance.shape[0] == 1  # a cloth alone: one distance for every pair
+    only_distance = segment_distance[0] if one_segment else zero
     for slot in numba.prange(sorted_points.shape[0]):
         i = order[slot]
         wi = sorted_points[slot, 3]
@@ -160,14 +162,15 @@ def _collide_points(
                         tx = sorted_cell[k, 0]
                         if (tx != x0 and tx != x0 + 1) or sorted_cell[k, 1] != ty or sorted_cell[k, 2] != tz:
                             continue
-                        j = order[k]
-                        distance = segment_distance[point_segment[j]]
+                        # most candidates are out of reach: decide that before loading more
+                        distance = only_distance if one_segment else segment_distance[point_segment[order[k]]]
                         ex = xi - sorted_points[k, 0]
                         ey = yi - sorted_points[k, 1]
                         ez = zi - sorted_points[k, 2]
                         d2 = ex * ex + ey * ey + ez * ez
-                        if j == i or not (d2 < distance * distance and d2 > zero):
+                        if k == slot or not (d2 < distance * distance and d2 > zero):
                             continue
+                        j = order[k]
                         if j < own:
                             rx = rest[i, 0] - rest[j, 0]
                             ry = rest[i, 1] - rest[j, 1]
