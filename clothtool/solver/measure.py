@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch
+from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch, upper_percentile
 
 PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
 
@@ -24,7 +24,7 @@ class ClothMeter:
             last = int(model.set_offsets[model.phase_set_offsets[p + 1]])
             if last > first:
                 self.spans.setdefault(label, []).append((first, last))
-        self.strain = np.zeros(model.constraint_indices.shape[0], np.float32)
+        self.strain = np.zeros(model.constraint_indices.shape[0], solver.state.cur.dtype)
         self.has_tethers = model.has_tethers
 
     def warm_up(self) -> None:
@@ -33,6 +33,7 @@ class ClothMeter:
         strain_extremes(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur)
         motion_summary(state.cur[:0], state.prev[:0], model.mass[:0], 1.0)
         tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
+        upper_percentile(self.strain[:0], 99.0)
 
     def measure(self, h: float, percentiles: bool) -> dict:
         """Stats after the last iteration of a frame of iteration length ``h``."""
@@ -43,17 +44,24 @@ class ClothMeter:
         for label in PHASE_LABELS:
             if label not in self.spans:
                 continue
+            spans = self.spans[label]
+            if percentiles:  # the 99th percentile needs every strain: compute and keep them
+                for first, last in spans:
+                    constraint_strain(indices[first:last], rest[first:last], state.cur, self.strain[first:last])
+                values = self.strain[spans[0][0] : spans[0][1]] if len(spans) == 1 else np.concatenate(
+                    [self.strain[a:b] for a, b in spans]
+                )
+                strain[label] = {
+                    "max": float(values.max()),
+                    "mean": float(values.sum(dtype=np.float64)) / values.size,
+                    "p99": float(upper_percentile(values, 99.0)),
+                }
+                continue
             worst, total, count = -np.inf, 0.0, 0
-            for first, last in self.spans[label]:
+            for first, last in spans:
                 span_max, span_sum = strain_extremes(indices[first:last], rest[first:last], state.cur)
                 worst, total, count = max(worst, span_max), total + span_sum, count + last - first
-            entry = {"max": float(worst), "mean": total / count}
-            if percentiles:  # the 99th percentile needs every strain: compute and keep them
-                for first, last in self.spans[label]:
-                    constraint_strain(indices[first:last], rest[first:last], state.cur, self.strain[first:last])
-                values = np.concatenate([self.strain[a:b] for a, b in self.spans[label]])
-                entry["p99"] = float(np.percentile(values, 99.0))
-            strain[label] = entry
+            strain[label] = {"max": float(worst), "mean": total / count}
         speed, energy, fastest, bad = motion_summary(state.cur, state.prev, model.mass, 1.0 / h)
         stats = {
             "strain": strain,

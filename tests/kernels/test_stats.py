@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch
+from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch, upper_percentile
 from tests.kernels._data import U, assert_close, f32, particles
 from tests.reference import stats as ref
 
@@ -137,3 +137,23 @@ def test_tether_stretch_ignores_inactive_slots():
     assert ref.tether_stretch(anchors, lengths, cur) == pytest.approx(0.5)
     assert tether_stretch(np.zeros(0, np.int32), f32([]), cur) == 0.0
     assert ref.tether_stretch(np.zeros(0, np.int32), f32([]), cur) == 0.0
+
+
+@settings(max_examples=60)
+@given(seed=seeds, n=st.integers(0, 400), q=st.sampled_from([0.0, 1.0, 50.0, 90.0, 99.0, 99.9, 100.0]), ties=st.booleans())
+def test_upper_percentile_matches_numpy(seed, n, q, ties):
+    rng = np.random.default_rng(seed)
+    values = f32(rng.normal(0.0, 0.05, n))
+    if ties:  # many equal values, as strains of a cloth at rest are
+        values = f32(np.round(values, 2))
+    got = upper_percentile(values, q)
+    want = ref.upper_percentile(values, q)
+    if n == 0:
+        assert np.isnan(got) and np.isnan(want)
+    else:
+        assert got == pytest.approx(want, rel=1e-12, abs=1e-15)
+
+
+def test_upper_percentile_nan():
+    assert np.isnan(upper_percentile(f32([0.1, np.nan, 0.2]), 99.0))
+    assert upper_percentile(f32([0.25]), 99.0) == 0.25

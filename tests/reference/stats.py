@@ -66,3 +66,16 @@ def strain_extremes(indices, rest, cur):
     """(max, sum) of constraint_strain over the given constraints (-inf, 0 when none)."""
     strain = constraint_strain(indices, rest, cur)
     return (float(strain.max()) if strain.size else -np.inf), float(strain.sum())
+
+
+def _edge_strains(flat, indices, rest, lo, hi, out=None):
+    """Returns the strains of constraints lo .. hi (flat: the (n*4,) particle view)."""
+    return constraint_strain(np.asarray(indices)[lo:hi], np.asarray(rest)[lo:hi], np.asarray(flat).reshape(-1, 4))
+
+
+def upper_percentile(values, q):
+    """np.percentile in float64 (NaN for no values or a NaN among them)."""
+    values = np.asarray(values, np.float64)
+    if values.size == 0 or np.isnan(values).any():
+        return np.nan
+    return float(np.percentile(values, q))
