@@ -147,3 +147,15 @@ def test_empty_arrays():
     assert run(constrain_motion, np.zeros((0, 3), np.float32), none, F32(1), F32(0), F32(1), cur=empty).shape == (0, 4)
     assert run(constrain_separation, np.zeros((0, 3), np.float32), none, cur=empty).shape == (0, 4)
     assert run(constrain_tethers, np.zeros(0, np.int32), none, F32(1), F32(1), cur=empty).shape == (0, 4)
+
+
+def test_tethers_in_float64_state():
+    """The precision option's float64 state runs the same kernel on <4 x double> rows."""
+    rng = np.random.default_rng(7)
+    anchors, lengths, cur, pinned = tether_setup(rng, 300, 2)  # more than one block of particles
+    cur64 = cur.astype(np.float64)
+    got = run(constrain_tethers, anchors, lengths, np.float64(1.0), np.float64(0.4), cur=cur64)
+    want = ref.constrain_tethers(anchors, lengths, 1.0, 0.4, cur64)
+    assert got.dtype == np.float64
+    assert_close(got, want, 1e-12, "cur")
+    assert np.abs(got - cur64).max() > 1e-3  # tethers pulled

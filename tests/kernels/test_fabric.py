@@ -274,3 +274,16 @@ def test_no_phases_and_empty_sets():
     for kernel in (solve_xpbd, solve_xpbd_parallel):
         for offsets in (np.zeros(1, np.int32), np.zeros(2, np.int32)):
             np.testing.assert_array_equal(iterate(kernel, (none[0], none[1], none[2], offsets), cur, 1)[0], cur)
+
+
+@pytest.mark.parametrize("kernel", [solve_phases, solve_phases_parallel], ids=["serial", "parallel"])
+def test_float64_state_matches_reference(cooked, kernel):
+    """The precision option's float64 state: the same kernels on <4 x double> rows, within
+    float64 rounding of the reference."""
+    args, cur = cooked
+    cur64 = cur.astype(np.float64)
+    got = iterate(kernel, args, cur64)
+    want = iterate_reference(args, cur64)
+    for it, (g, w) in enumerate(zip(got, want)):
+        assert g.dtype == np.float64
+        assert_close(g, w, 1e-12, f"iteration {it}")

@@ -108,3 +108,14 @@ def test_empty_arrays():
     eye = np.eye(3, dtype=np.float32)
     cur, prev = run(integrate_affine, eye, eye, f32(np.zeros(3)), cur=empty, prev=empty)
     assert cur.shape == prev.shape == (0, 4)
+
+
+def test_integrate_linear_in_float64_state():
+    rng = np.random.default_rng(3)
+    cur0, prev0 = particles(rng, 50, pinned=0.3)
+    cur0, prev0 = cur0.astype(np.float64), prev0.astype(np.float64)
+    bias = np.array([0.0, -9.81 / 300**2, 0.0])
+    cur, prev = run(integrate_linear, 0.99, bias, cur=cur0, prev=prev0)
+    ref_cur, ref_prev = ref.integrate_linear(0.99, bias, cur0, prev0)
+    assert cur.dtype == np.float64
+    check(cur0, prev0, cur, prev, ref_cur, ref_prev, 1e-15)
