@@ -22,7 +22,8 @@ def motion_summary(cur, prev, masses, inv_dt):
         vz = (np.float64(cur[i, 2]) - np.float64(prev[i, 2])) * inv_dt
         speed_sqr = vx * vx + vy * vy + vz * vz
         # Infinite or NaN exactly when one of the six coordinates is: differences of finite
-        # float32 values (< 7e38) times any sane 1/dt cannot overflow float64 when squared.
+        # float32 values (< 7e38) times any sane 1/dt cannot overflow float64 when squared
+        # (a float64 state with coordinates near 1e150 has long exceeded solver.max_speed).
         if not np.isfinite(speed_sqr):
             if bad < 0:
                 bad = i
