@@ -109,7 +109,7 @@ class SolverConfig:
     parallel_threshold: collision, self-collision and the other integrators' work over at
         least this many particles or constraints runs on all cores.
     fabric_parallel_threshold: the position-based fabric's sets of at least this many
-        constraints are solved on all cores (the kernel does ~3.5 ns per constraint, so a set
+        constraints are solved on all cores (the kernel does ~3 ns per constraint, so a set
         must be large for two threads to beat one). Either way the bits are identical.
     precision: "float32" (production) or "float64" particle state (study references).
     max_speed: a particle faster than this (m/s) marks the bake unstable.
