@@ -13,7 +13,8 @@ offset, lane-wise ``vadd``/``vsub``/``vmul`` (multiply-add pairs fuse, as ``fast
 {"contract"}`` lets scalar code fuse), ``fill``, ``lane``, ``keep_w``, and ``transpose4`` /
 ``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once).
 The values never leave a kernel (no boxing), so a numba type with a primitive data model is
-all they need.
+all they need. numba's cache is keyed on each kernel's own source file: after editing this
+module, delete the kernels' cached code (clothtool/**/__pycache__/*.nbi, *.nbc).
 """
 
 from __future__ import annotations
