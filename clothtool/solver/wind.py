@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.integrators.implicit.pattern import color_elements
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.wind import apply_wind
 from clothtool.solver.stage import Stage
@@ -23,6 +24,17 @@ _NO_MOTION = (np.zeros((3, 3), np.float32), np.zeros(3, np.float32))
 
 class WindStage(Stage):
     name = "wind"
+
+    def __init__(self, solver):
+        super().__init__(solver)
+        # The kernel moves each triangle's particles before the next triangle reads them, as the
+        # seed does. In mesh order consecutive triangles share particles, so every triangle
+        # waits for the last one's square roots and divisions (~50 ns each). Ordered colour by
+        # colour (triangles of one colour share no particle) they overlap, about 4x faster;
+        # the update is the seed's, in another triangle order.
+        model = solver.model
+        order, _ = color_elements(model.triangles, model.particle_count)
+        self.triangles = np.ascontiguousarray(model.triangles[order])
 
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver
@@ -38,7 +50,7 @@ class WindStage(Stage):
         solver = self.solver
         matrix, offset = _NO_MOTION
         one = np.float32(1.0)
-        apply_wind(solver.model.triangles[:0], matrix, offset, offset, one, one, one, one, solver.state.cur, solver.state.prev)
+        apply_wind(self.triangles[:0], matrix, offset, offset, one, one, one, one, solver.state.cur, solver.state.prev)
 
     def run(self, iteration: Iteration) -> None:
         solver = self.solver
@@ -49,6 +61,6 @@ class WindStage(Stage):
             matrix, offset = iteration.terms.motion_matrix, iteration.terms.motion_offset
             air = (iteration.terms.to_local @ self.wind_world).astype(np.float32)
         apply_wind(
-            solver.model.triangles, matrix, offset, air, self.inv_dt, self.drag, self.lift, self.density,
+            self.triangles, matrix, offset, air, self.inv_dt, self.drag, self.lift, self.density,
             solver.state.cur, solver.state.prev,
         )
