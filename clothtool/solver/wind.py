@@ -27,13 +27,13 @@ class WindStage(Stage):
 
     def __init__(self, solver):
         super().__init__(solver)
-        # The kernel moves each triangle's particles before the next triangle reads them, as the
-        # seed does. In mesh order consecutive triangles share particles, so every triangle
-        # waits for the last one's square roots and divisions (~50 ns each). Ordered colour by
-        # colour (triangles of one colour share no particle) they overlap, about 4x faster;
-        # the update is the seed's, in another triangle order.
+        # The kernel moves each triangle's particles before later triangles read them, as the
+        # seed does. In mesh order consecutive triangles share particles, so each would wait
+        # for the last; ordered colour by colour (triangles of a colour share no particle) the
+        # kernel solves a colour's triangles in vectorised blocks, ~2.6x faster than one by one
+        # in mesh order. The update is the seed's, in another triangle order.
         model = solver.model
-        order, _ = color_elements(model.triangles, model.particle_count)
+        order, self.color_offsets = color_elements(model.triangles, model.particle_count)
         self.triangles = np.ascontiguousarray(model.triangles[order])
 
     def begin_frame(self, plan: FramePlan) -> None:
@@ -50,7 +50,7 @@ class WindStage(Stage):
         solver = self.solver
         matrix, offset = _NO_MOTION
         one = np.float32(1.0)
-        apply_wind(self.triangles[:0], matrix, offset, offset, one, one, one, one, solver.state.cur, solver.state.prev)
+        apply_wind(self.triangles[:0], self.color_offsets[:1], matrix, offset, offset, one, one, one, one, solver.state.cur, solver.state.prev)
 
     def run(self, iteration: Iteration) -> None:
         solver = self.solver
@@ -61,6 +61,6 @@ class WindStage(Stage):
             matrix, offset = iteration.terms.motion_matrix, iteration.terms.motion_offset
             air = (iteration.terms.to_local @ self.wind_world).astype(np.float32)
         apply_wind(
-            self.triangles, matrix, offset, air, self.inv_dt, self.drag, self.lift, self.density,
+            self.triangles, self.color_offsets, matrix, offset, air, self.inv_dt, self.drag, self.lift, self.density,
             solver.state.cur, solver.state.prev,
         )

@@ -16,7 +16,9 @@ corner moves by -i times its inverse mass (cur.w) — scaled down, where it woul
 centre moves by at most |d| (air can at most stop the triangle's relative motion).
 
 The loop is deliberately sequential: a triangle's centre and normal are read from positions
-that the triangles before it have already pushed, so the result depends on the order.
+that the triangles before it have already pushed, so the result depends on the order. The
+kernel takes the triangles in colours of particle-disjoint triangles; this reference checks
+that they are and otherwise ignores them (within a colour the order cannot matter).
 A degenerate triangle (a = 0) has no normal; its impulse, proportional to a, is zero.
 """
 
@@ -46,8 +48,15 @@ def triangle_impulse(c, p, frame_matrix, frame_offset, air_offset, inv_dt, drag,
     return (i_lift + i_drag) * density * double_area, length
 
 
-def apply_wind(triangles, frame_matrix, frame_offset, air_offset, inv_dt, drag, lift, density, cur, prev):
+def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset, inv_dt, drag, lift, density, cur, prev):
     """Returns cur (float64 copy) after every triangle's impulse, applied in triangle order."""
+    triangles = np.asarray(triangles)
+    for k in range(len(color_offsets) - 1):
+        corners = triangles[color_offsets[k] : color_offsets[k + 1]].ravel()
+        if np.unique(corners).size != corners.size:
+            raise ValueError("a colour's triangles share a particle")
+    if len(color_offsets) and (color_offsets[0] != 0 or color_offsets[-1] != triangles.shape[0]):
+        raise ValueError("the colours do not cover the triangles")
     cur = np.array(cur, np.float64)
     prev = np.asarray(prev, np.float64)
     args = (
@@ -62,3 +71,36 @@ def apply_wind(triangles, frame_matrix, frame_offset, air_offset, inv_dt, drag, 
         for j in tri:
             cur[j, :3] -= impulse * cur[j, 3]
     return cur
+
+
+def _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev, scratch=None):
+    """Per triangle lo..hi: (d (k,3), unnormalised normal (k,3), mean inverse mass (k,)) from
+    the flat (n*4,) particle views."""
+    c = np.asarray(cur, np.float64).reshape(-1, 4)
+    p = np.asarray(prev, np.float64).reshape(-1, 4)
+    tri = np.asarray(triangles)[lo:hi]
+    centre = c[tri, :3].mean(axis=1)
+    d = centre - p[tri, :3].mean(axis=1) + centre @ np.asarray(frame_matrix, np.float64).T + frame_offset - air_offset
+    normal = np.cross(c[tri[:, 2], :3] - c[tri[:, 0], :3], c[tri[:, 1], :3] - c[tri[:, 0], :3])
+    return d, normal, c[tri, 3].mean(axis=1)
+
+
+def _impulses(d, normal, mean_inverse_mass, inv_dt, drag, lift, density):
+    """(k,3) impulses from _gather's (d, normal, mean inverse mass): triangle_impulse's
+    formula, zero below the epsilon or without area, capped so that the centre moves at most
+    |d|. (The kernel's helper reads the same values from its block scratch.)"""
+    out = np.zeros((len(d), 3))
+    for j, (dj, nj, wj) in enumerate(zip(d, normal, mean_inverse_mass)):
+        double_area = np.linalg.norm(nj)
+        length_sqr = float(dj @ dj)
+        if length_sqr < FLT_EPSILON or double_area == 0.0:
+            continue
+        length = np.sqrt(length_sqr)
+        n_hat = nj / double_area
+        cos_theta = float(n_hat @ dj) / length
+        sin_theta = np.sqrt(max(0.0, 1.0 - cos_theta * cos_theta))
+        lift_dir = np.cross(np.cross(dj, n_hat), dj) / length
+        impulse = (lift * cos_theta * sin_theta * lift_dir + drag * abs(cos_theta) * dj) * length * inv_dt * density * double_area
+        shift = np.linalg.norm(impulse) * wj
+        out[j] = impulse * (length / shift) if shift > length else impulse
+    return out
