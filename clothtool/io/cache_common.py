@@ -1,19 +1,23 @@
-"""What every cache format shares: checks of what a bake hands a writer, the CacheReader
-base class with the summary it gives ``clothtool inspect``, and the summary text.
+"""What every cache format shares: checks of what a bake hands a writer, the writers'
+temporary-file lifecycle (StreamedCacheWriter), the CacheReader base class with the summary
+it gives ``clothtool inspect``, and the summary text.
 
 Used by ``clothtool.io.h5cache`` and ``clothtool.io.usdcache``; loads neither h5py nor pxr.
 """
 
 from __future__ import annotations
 
+import abc
+import contextlib
 import json
+import os
 import re
 from pathlib import Path
 
 import numpy as np
 
 from clothtool.errors import ClothtoolError
-from clothtool.io.cache import CacheHeader, ClothTopology, ColliderInfo, FrameData
+from clothtool.io.cache import CacheHeader, ClothTopology, ColliderInfo, FrameData, partial_path
 
 FORMAT_NAME = "clothtool-cache"
 FORMAT_VERSION = 1
@@ -172,6 +176,63 @@ def scalar_params_json(params: dict) -> str:
     """Canonical JSON (sorted keys) of a collider's scalar parameters; arrays are left out."""
     scalars = {k: float(v) if isinstance(v, (int, float, np.number)) else v for k, v in params.items() if np.ndim(v) == 0}
     return json.dumps(scalars, sort_keys=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# Shared by every cache writer: the temporary file, the partial file, the commit.
+
+
+class StreamedCacheWriter(abc.ABC):
+    """The lifecycle every cache writer shares. Frames stream into a temporary sibling of the
+    output (``_tmp``); ``commit`` renames it into place. Leaving the ``with`` block uncommitted
+    (an error, an unstable bake) keeps the whole frames written so far under the partial name,
+    or removes the temporary file when there are none. A format implements ``write_header``,
+    ``write_frame`` and ``_release(keep)``: close its file, saving it first when ``keep``."""
+
+    def __init__(self, path: Path, tmp: Path):
+        self.path = path
+        self._tmp = tmp
+        self._header: CacheHeader | None = None
+        self._committed = False
+        self._deforming: set[int] = set()  # colliders whose points the last frame wrote
+        self.frames_written = 0
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if self._committed:
+            return
+        keep = self.frames_written > 0
+        self._release(keep)
+        if keep:
+            os.replace(self._tmp, partial_path(self.path))
+        with contextlib.suppress(FileNotFoundError):
+            self._tmp.unlink()
+
+    @abc.abstractmethod
+    def _release(self, keep: bool) -> None:
+        """Close the format's file; when ``keep``, first save what it holds to ``_tmp``."""
+
+    def _check_new_header(self, header: CacheHeader) -> None:
+        if self._header is not None:
+            raise ClothtoolError(f"{self.path}: write_header called twice; write the header once")
+        validate_header(header, self.path)
+
+    def _check_next_frame(self, frame: FrameData) -> CacheHeader:
+        """The header, after checking ``frame`` is the next one it allows."""
+        header = self._header
+        if header is None:
+            raise ClothtoolError(f"{self.path}: write_frame called before write_header")
+        check_frame(header, frame, header.start_frame + self.frames_written, self.path)
+        return header
+
+    def commit(self) -> None:
+        if self._header is None:
+            raise ClothtoolError(f"{self.path}: commit called before write_header")
+        self._release(keep=True)
+        os.replace(self._tmp, self.path)
+        self._committed = True
 
 
 # ---------------------------------------------------------------------------------------------

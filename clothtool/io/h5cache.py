@@ -26,17 +26,16 @@ import numpy as np
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.atomic import check_output_path, temporary_sibling
-from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData, partial_path
+from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData
 from clothtool.io.cache_common import (
+    CacheReader,
     FORMAT_NAME,
     FORMAT_VERSION,
-    CacheReader,
+    StreamedCacheWriter,
     as_points,
-    check_frame,
     deformed_collider_points,
     points_extent,
     scalar_params_json,
-    validate_header,
     writes_colliders,
 )
 
@@ -55,39 +54,21 @@ _COMPRESSION = {
 _SERIES_CHUNK = 64
 
 
-class H5CacheWriter:
+class H5CacheWriter(StreamedCacheWriter):
     """Stream frames into an HDF5 cache; see the module docstring and formats/cache-h5/v1.md."""
 
     def __init__(self, path: Path, options: CacheOptions = CacheOptions()):
-        self.path = check_output_path(path)
+        path = check_output_path(path)
         if options.compression not in _COMPRESSION:
             raise ClothtoolError(f"{path}: unknown compression '{options.compression}'; use {', '.join(_COMPRESSION)}")
+        super().__init__(path, temporary_sibling(path))
         self._filters = _COMPRESSION[options.compression]
-        self._tmp = temporary_sibling(self.path)
         self._file = None
-        self._header: CacheHeader | None = None
-        self._committed = False
-        self._deforming: set[int] = set()
-        self.frames_written = 0
-
-    def __enter__(self) -> "H5CacheWriter":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if self._committed:
-            return
-        self._close()
-        if self.frames_written:
-            os.replace(self._tmp, partial_path(self.path))
-        with contextlib.suppress(FileNotFoundError):
-            self._tmp.unlink()
 
     def write_header(self, header: CacheHeader) -> None:
         import h5py
 
-        if self._header is not None:
-            raise ClothtoolError(f"{self.path}: write_header called twice; write the header once")
-        validate_header(header, self.path)
+        self._check_new_header(header)
         self._header = header
         try:
             self._file = f = h5py.File(self._tmp, "w", libver=HDF5_LIBVER)
@@ -142,10 +123,7 @@ class H5CacheWriter:
             g.create_dataset("rest_points", data=as_points(collider.rest_points))
 
     def write_frame(self, frame: FrameData) -> None:
-        header = self._header
-        if header is None:
-            raise ClothtoolError(f"{self.path}: write_frame called before write_header")
-        check_frame(header, frame, header.start_frame + self.frames_written, self.path)
+        header = self._check_next_frame(frame)
         moved = {}
         if writes_colliders(header):  # checked before anything of the frame is written
             moved = deformed_collider_points(header, frame, self._deforming if self.frames_written else None, self.path)
@@ -184,14 +162,8 @@ class H5CacheWriter:
                     self._series(g, "P", moved[i].shape, np.float32, per_frame_chunk=True)
                 _append(g["P"], k, moved[i])
 
-    def commit(self) -> None:
-        if self._header is None:
-            raise ClothtoolError(f"{self.path}: commit called before write_header")
-        self._close()
-        os.replace(self._tmp, self.path)
-        self._committed = True
-
-    def _close(self) -> None:
+    def _release(self, keep: bool) -> None:
+        # Flushed every frame, the file holds all it should: trimmed and closed either way.
         if self._file is None:
             return
         with contextlib.suppress(Exception):

@@ -22,18 +22,17 @@ from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.atomic import check_output_path, temporary_sibling
-from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData, partial_path
+from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData
 from clothtool.io.cache_common import (
+    CacheReader,
     FORMAT_NAME,
     FORMAT_VERSION,
-    CacheReader,
+    StreamedCacheWriter,
     as_points,
-    check_frame,
     deformed_collider_points,
     format_cache_summary,
     points_extent,
     scalar_params_json,
-    validate_header,
     writes_colliders,
 )
 
@@ -138,40 +137,21 @@ def convex_hull_mesh(planes: np.ndarray):
 # The writer.
 
 
-class UsdCacheWriter:
+class UsdCacheWriter(StreamedCacheWriter):
     """Stream frames into a USD cache; see the module docstring and formats/cache-usd/v1.md."""
 
     def __init__(self, path: Path, options: CacheOptions = CacheOptions()):
-        self.path = check_output_path(path)
-        self._crate = self.path.suffix.lower() in (".usdc", ".usd")
+        path = check_output_path(path)
+        super().__init__(path, _temporary_name(path))
+        self._crate = path.suffix.lower() in (".usdc", ".usd")
         # Text layers rewrite the whole file on every save: save them once, at the end.
         self._save_every = int(options.save_every) if self._crate else 0
-        self._tmp = _temporary_name(self.path)
         self._layer = None
-        self._header: CacheHeader | None = None
-        self._committed = False
         self._cloth_paths: list[dict] = []
         self._collider_paths: list[dict] = []
-        self._deforming: set[int] = set()
-        self.frames_written = 0
-
-    def __enter__(self) -> "UsdCacheWriter":
-        return self
-
-    def __exit__(self, exc_type, exc, tb) -> None:
-        if self._committed:
-            return
-        if self._layer is not None and self.frames_written:
-            self._save_and_release()
-            os.replace(self._tmp, partial_path(self.path))
-        self._layer = None
-        with contextlib.suppress(FileNotFoundError):
-            self._tmp.unlink()
 
     def write_header(self, header: CacheHeader) -> None:
-        if self._header is not None:
-            raise ClothtoolError(f"{self.path}: write_header called twice; write the header once")
-        validate_header(header, self.path)
+        self._check_new_header(header)
         with contextlib.suppress(FileNotFoundError):
             self._tmp.unlink()  # a stale file from a killed process with the same id
         try:
@@ -192,10 +172,7 @@ class UsdCacheWriter:
         del stage
 
     def write_frame(self, frame: FrameData) -> None:
-        header, layer = self._header, self._layer
-        if header is None:
-            raise ClothtoolError(f"{self.path}: write_frame called before write_header")
-        check_frame(header, frame, header.start_frame + self.frames_written, self.path)
+        header, layer = self._check_next_frame(frame), self._layer
         first, time = self.frames_written == 0, float(frame.frame)
         moved = {}
         if self._collider_paths:  # checked before anything of the frame is written
@@ -241,13 +218,6 @@ class UsdCacheWriter:
                 if layer.QueryTimeSample(path, time) is not None:
                     layer.EraseTimeSample(path, time)
 
-    def commit(self) -> None:
-        if self._header is None:
-            raise ClothtoolError(f"{self.path}: commit called before write_header")
-        self._save_and_release()
-        os.replace(self._tmp, self.path)
-        self._committed = True
-
     def _save(self) -> None:
         try:
             saved = self._layer.Save()
@@ -258,9 +228,10 @@ class UsdCacheWriter:
         if not saved:
             raise ClothtoolError(f"{self.path}: cannot save the USD layer ({reason}); check free disk space and permissions")
 
-    def _save_and_release(self) -> None:
+    def _release(self, keep: bool) -> None:
         # Drop every handle before the rename: the layer registry must forget the temporary name.
-        self._save()
+        if keep and self._layer is not None:
+            self._save()
         self._layer = None
 
 
