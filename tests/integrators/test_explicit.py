@@ -13,7 +13,6 @@ import pytest
 
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.errors import SceneError, UnstableError
-from clothtool.fabric import Fabric, PhaseType
 from clothtool.integrators.explicit import ExplicitClothSolver, stability_limit
 from clothtool.integrators.explicit.stability import stability_report
 from clothtool.mesh.shapes import grid
@@ -24,6 +23,7 @@ from clothtool.solver.environment import Environment
 from clothtool.solver.frame import Pose
 from clothtool.solver.measure import ClothMeter
 from clothtool.solver.model import Placement, build_model
+from tests.physics.conftest import fabric_from_arrays
 
 G = np.array([0.0, -9.81, 0.0])
 EPS32 = float(np.finfo(np.float32).eps)
@@ -34,40 +34,6 @@ class ForcedConfig(SolverConfig):
     """SolverConfig with the `force` flag the bake's --force sets (skips the stability check)."""
 
     force: bool = True
-
-
-def fabric_from_arrays(rest_pos, inv_mass, area, sets=(), phase=PhaseType.VERTICAL, triangles=None) -> Fabric:
-    """A validated Fabric: ``sets`` lists conflict-free (c_i,2) pair arrays of one phase; rest
-    lengths are the rest pose's distances; particle i has lumped area area[i] (m^2) and the
-    fabric inverse mass inv_mass[i] (0 = pinned), i.e. 1/area for a consistent mass."""
-    pos = np.asarray(rest_pos, np.float64)
-    n = pos.shape[0]
-    sets = [np.asarray(s, np.int32).reshape(-1, 2) for s in sets]
-    pairs = np.concatenate(sets) if sets else np.zeros((0, 2), np.int32)
-    tris = np.zeros((0, 3), np.int32) if triangles is None else np.asarray(triangles, np.int32)
-    fabric = Fabric(
-        rest_pos=pos.astype(np.float32),
-        particle_inv_mass=np.asarray(inv_mass, np.float32),
-        particle_area=np.broadcast_to(np.asarray(area, np.float32), (n,)).copy(),
-        particle_max_distance=np.full(n, np.inf, np.float32),
-        triangles=tris,
-        face_vertex_counts=np.full(tris.shape[0], 3, np.int32),
-        face_vertex_indices=tris.reshape(-1).astype(np.int32),
-        face_vertex_uv=np.zeros((0, 2), np.float32),
-        phase_type=np.array([int(phase)] if sets else [], np.int32),
-        phase_set_offsets=np.array([0, len(sets)] if sets else [0], np.int32),
-        set_offsets=np.concatenate([[0], np.cumsum([s.shape[0] for s in sets])]).astype(np.int32),
-        constraint_indices=pairs,
-        constraint_rest_length=np.linalg.norm(pos[pairs[:, 1]] - pos[pairs[:, 0]], axis=1).astype(np.float32),
-        constraint_stiffness=np.ones(pairs.shape[0], np.float32),
-        tether_anchor=np.zeros(0, np.int32),
-        tether_rest_length=np.zeros(0, np.float32),
-        virtual_particles=np.zeros((0, 4), np.int32),
-        virtual_particle_weights=np.zeros((0, 3), np.float32),
-        virtual_batch_offsets=np.zeros(1, np.int32),
-    )
-    fabric.validate()
-    return fabric
 
 
 def make_solver(fabric, material, config=SolverConfig(), gravity=G, wind=None, density=1.0, colliders=None, **kwargs):
@@ -83,7 +49,7 @@ def chain(n=10, spacing=0.1, mass=0.1, k=1000.0, damping=1.0):
     inv_mass = np.full(n + 1, 1.0 / mass)
     inv_mass[0] = 0.0
     pairs = np.stack([np.arange(n), np.arange(1, n + 1)], axis=1)
-    fabric = fabric_from_arrays(pos, inv_mass, mass, [pairs[0::2], pairs[1::2]])
+    fabric = fabric_from_arrays(pos, inv_mass, [pairs[0::2], pairs[1::2]], area=mass)
     # k = stretch_modulus * A / L^2 with A = mass (areal density 1)
     material = Material(areal_density=1.0, stretch_modulus=k * spacing**2 / mass, damping=damping, drag_coefficient=0.0)
     return fabric, material
@@ -118,7 +84,7 @@ def drive(solver, fps, frames, each_substep=None):
 @pytest.mark.parametrize("precision", ["float64", "float32"])
 def test_free_fall_is_the_exact_discrete_answer(precision):
     """v_k = v_0 + k h g and x_n = x_0 + h sum_{k=1..n} v_k = x_0 + n h v_0 + h^2 g n (n+1) / 2."""
-    fabric = fabric_from_arrays([[0, 0, 0], [1, 2, 3], [0.5, 1, 0]], [1.0, 0.5, 0.0], [1.0, 2.0, 1.0])
+    fabric = fabric_from_arrays([[0, 0, 0], [1, 2, 3], [0.5, 1, 0]], [1.0, 0.5, 0.0], area=[1.0, 2.0, 1.0])
     v0 = np.array([1.0, 2.0, 0.5])
     solver = make_solver(fabric, Material(areal_density=1.0), SolverConfig(frequency=600.0, precision=precision),
                          initial_velocity=v0)
@@ -144,7 +110,7 @@ def test_spring_oscillates_at_sqrt_k_over_m():
     """A 1 kg particle on a 400 N/m spring to a pinned one, undamped, no gravity, kicked at
     0.1 m/s along the spring: x(t) = (v0 / omega) sin(omega t), f = sqrt(k/m) / 2 pi."""
     k, m, v0 = 400.0, 1.0, 0.1
-    fabric = fabric_from_arrays([[0, 0, 0], [1, 0, 0]], [0.0, 1.0], 1.0, [[[0, 1]]])
+    fabric = fabric_from_arrays([[0, 0, 0], [1, 0, 0]], [0.0, 1.0], [[[0, 1]]], area=1.0)
     material = Material(areal_density=1.0, stretch_modulus=k, damping=0.0, drag_coefficient=0.0)
     solver = make_solver(fabric, material, SolverConfig(frequency=400.0), gravity=(0, 0, 0),
                          initial_velocity=(v0, 0, 0))
@@ -265,7 +231,7 @@ def test_beyond_the_limit_blows_up_when_forced(name, fabric, material, factor):
 def test_limit_of_one_spring_is_two_over_omega_lowered_by_damping():
     """One spring to a pinned end: h_max = (2 / omega) (sqrt(1 + zeta^2) - zeta)."""
     for zeta in (0.0, 0.3, 1.0):
-        fabric = fabric_from_arrays([[0, 0, 0], [1, 0, 0]], [0.0, 0.5], 2.0, [[[0, 1]]])
+        fabric = fabric_from_arrays([[0, 0, 0], [1, 0, 0]], [0.0, 0.5], [[[0, 1]]], area=2.0)
         material = Material(areal_density=1.0, stretch_modulus=800.0, damping=zeta)
         model = build_model("c", fabric, material, Placement(), 1.0, "Y")
         omega = math.sqrt(1600.0 / 2.0)  # k = E A / L^2 = 800 * 2 / 1 N/m, m = 2 kg
@@ -297,7 +263,7 @@ def test_too_long_a_substep_is_refused_with_the_figure():
 def flat_sheet(side):
     """Two triangles making a side x side square in the XY plane (normal +Z), all free."""
     pos = np.array([[0, 0, 0], [side, 0, 0], [side, side, 0], [0, side, 0]], np.float64)
-    return fabric_from_arrays(pos, [1.0] * 4, 1.0, triangles=[[0, 1, 2], [0, 2, 3]])
+    return fabric_from_arrays(pos, [1.0] * 4, triangles=[[0, 1, 2], [0, 2, 3]], area=1.0)
 
 
 def wind_force(fabric, wind, density=1.2, drag=0.5):
@@ -345,7 +311,7 @@ def ground(friction=0.4, margin=0.0, height=0.0):
 def test_sliding_on_the_ground_decelerates_at_mu_g():
     """A lone particle sliding at 2 m/s on the ground, mu = sqrt(0.4 * 0.4): each substep
     gravity pushes it in by g h, the contact removes that and friction mu g h of the slide."""
-    fabric = fabric_from_arrays([[0, 0.002, 0]], [1.0], 1.0)
+    fabric = fabric_from_arrays([[0, 0.002, 0]], [1.0], area=1.0)
     material = Material(areal_density=1.0, thickness=0.002, friction=0.4)
     collider = ground(0.4)
     solver = make_solver(fabric, material, SolverConfig(frequency=600.0), colliders=lambda t: collider,
@@ -419,7 +385,7 @@ def test_a_falling_sheet_rests_outside_each_collider(kind):
 
 def test_moving_colliders_are_interpolated_and_carry_the_cloth():
     """A ground plane rising at 1 m/s lifts a particle resting on it (inelastic contact)."""
-    fabric = fabric_from_arrays([[0, 0.002, 0]], [1.0], 1.0)
+    fabric = fabric_from_arrays([[0, 0.002, 0]], [1.0], area=1.0)
     solver = make_solver(fabric, Material(areal_density=1.0, thickness=0.002), SolverConfig(frequency=600.0),
                          colliders=lambda t: ground(0.5, height=1.0 * t))
     drive(solver, 60.0, 30)

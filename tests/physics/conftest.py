@@ -31,18 +31,22 @@ def fabric_from_arrays(
     phase: PhaseType = PhaseType.VERTICAL,
     triangles=None,
     max_distance=None,
+    area=None,
 ) -> Fabric:
     """A validated Fabric from raw arrays, without tethers.
 
     sets: sequence of (c_i,2) constraint pairs, one conflict-free set each, all in one phase of
     type ``phase``; rest lengths are the rest pose's distances (float64, then float32).
-    particle_area is 1/inv_mass (1 m^2 for pinned particles), so with an areal density of
-    1 kg/m^2 a particle's mass is 1/inv_mass kg.
+    particle_area is ``area`` (m^2, a scalar or per particle) or else 1/inv_mass (1 m^2 for
+    pinned particles), so with an areal density of 1 kg/m^2 a particle's mass is 1/inv_mass kg.
     """
     pos = np.asarray(rest_pos, np.float64)
     n = pos.shape[0]
     w = np.asarray(inv_mass, np.float32)
-    area = (1.0 / np.where(w > 0, w, 1.0)).astype(np.float32)
+    if area is None:
+        area = (1.0 / np.where(w > 0, w, 1.0)).astype(np.float32)
+    else:
+        area = np.broadcast_to(np.asarray(area, np.float32), (n,)).copy()
     sets = [np.asarray(s, np.int32).reshape(-1, 2) for s in sets]
     pairs = np.concatenate(sets) if sets else np.zeros((0, 2), np.int32)
     rest_length = np.linalg.norm(pos[pairs[:, 1]] - pos[pairs[:, 0]], axis=1)
