@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.integrators.implicit.pattern import color_elements
+from clothtool.cook.triplets import TripletScheduler
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.wind import apply_wind
 from clothtool.solver.stage import Stage
@@ -29,12 +29,14 @@ class WindStage(Stage):
         super().__init__(solver)
         # The kernel moves each triangle's particles before later triangles read them, as the
         # seed does. In mesh order consecutive triangles share particles, so each would wait
-        # for the last; ordered colour by colour (triangles of a colour share no particle) the
-        # kernel solves a colour's triangles in vectorised blocks, ~2.6x faster than one by one
-        # in mesh order. The update is the seed's, in another triangle order.
+        # for the last; scheduled into colours as the cook schedules constraints (triangles of
+        # a colour share no movable particle) the kernel solves a colour's triangles in
+        # vectorised blocks, ~2.6x faster than one by one in mesh order. The update is the
+        # seed's, in another triangle order.
         model = solver.model
-        order, self.color_offsets = color_elements(model.triangles, model.particle_count)
-        self.triangles = np.ascontiguousarray(model.triangles[order])
+        schedule = TripletScheduler(model.triangles, model.inv_mass > 0).sets()
+        self.triangles = np.ascontiguousarray(model.triangles[schedule.order], np.int32)
+        self.color_offsets = schedule.offsets
 
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver

@@ -17,8 +17,8 @@ centre moves by at most |d| (air can at most stop the triangle's relative motion
 
 The loop is deliberately sequential: a triangle's centre and normal are read from positions
 that the triangles before it have already pushed, so the result depends on the order. The
-kernel takes the triangles in colours of particle-disjoint triangles; this reference checks
-that they are and otherwise ignores them (within a colour the order cannot matter).
+kernel takes the triangles in colours that share no movable particle (cur.w > 0); this
+reference checks that and otherwise ignores them (within a colour the order cannot matter).
 A degenerate triangle (a = 0) has no normal; its impulse, proportional to a, is zero.
 """
 
@@ -51,10 +51,12 @@ def triangle_impulse(c, p, frame_matrix, frame_offset, air_offset, inv_dt, drag,
 def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset, inv_dt, drag, lift, density, cur, prev):
     """Returns cur (float64 copy) after every triangle's impulse, applied in triangle order."""
     triangles = np.asarray(triangles)
+    movable = np.asarray(cur)[:, 3] > 0
     for k in range(len(color_offsets) - 1):
         corners = triangles[color_offsets[k] : color_offsets[k + 1]].ravel()
+        corners = corners[movable[corners]]
         if np.unique(corners).size != corners.size:
-            raise ValueError("a colour's triangles share a particle")
+            raise ValueError("a colour's triangles share a movable particle")
     if len(color_offsets) and (color_offsets[0] != 0 or color_offsets[-1] != triangles.shape[0]):
         raise ValueError("the colours do not cover the triangles")
     cur = np.array(cur, np.float64)
