@@ -25,6 +25,7 @@ from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import Pose
 from clothtool.solver.measure import ClothMeter
 from clothtool.solver.model import build_model
+from clothtool.workload import iterations_per_frame
 
 STATS_FIELDS = ("max_speed", "kinetic_energy", "max_strain", "tether_stretch")
 
@@ -371,25 +372,38 @@ def _frame_data(frame, solvers, plans, per_cloth, attributes) -> FrameData:
     return FrameData(frame, tuple(s.world_points() for s in solvers), velocities, stats)
 
 
-def plan(scene: Scene, calibration_frames: int = 2) -> dict:
+def plan(scene: Scene, calibration_frames: int = 2, calibration_seconds: float = 2.0) -> dict:
     """The stage plan of ``scene`` without baking it: per cloth the stages that would run and
-    the iterations per frame, and an estimated cost from simulating a couple of frames."""
+    the iterations per frame, and an estimated cost from simulating a couple of frames (or
+    fewer iterations, when those take longer than ``calibration_seconds``)."""
     profiler = StageProfiler()
     solvers = make_solvers(scene, profiler)
     for solver in solvers:
         solver.warm_up()
     frames = min(calibration_frames, max(scene.frame_count - 1, 0))
     frame_dt = 1.0 / scene.fps
-    iterations = 0
+    iterations = iterations_per_frame(scene.solver.frequency, scene.fps)
+    simulated = 0  # iterations, summed over the calibration frames
+    deadline = time.perf_counter() + calibration_seconds
     for frame in range(scene.start_frame + 1, scene.start_frame + 1 + frames):
-        for solver in solvers:
-            iterations = solver.step(frame, scene.frame_time(frame - 1), frame_dt).iterations
-    per_frame = {name: seconds / max(frames, 1) for name, seconds in profiler.seconds.items()}
+        plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
+        iterations = max(p.iterations for p in plans)
+        for index in range(iterations):
+            for solver, frame_plan in zip(solvers, plans):
+                if index < frame_plan.iterations:
+                    solver.iterate(solver.iteration(frame_plan, index))
+            simulated += 1
+            if time.perf_counter() > deadline:
+                break
+        else:
+            continue
+        break
+    per_frame = {name: seconds * iterations / max(simulated, 1) for name, seconds in profiler.seconds.items()}
     estimate = sum(per_frame.values()) * (scene.frame_count - 1)
     return {
         "scene": scene.name,
         "frames": {"start": scene.start_frame, "end": scene.end_frame, "fps": scene.fps},
-        "iterations_per_frame": iterations or max(1, int(frame_dt * scene.solver.frequency + 0.5)),
+        "iterations_per_frame": iterations,
         "solver": dataclasses.asdict(scene.solver),
         "cloths": {
             s.model.name: {"particles": s.model.particle_count, "constraints": int(s.model.constraint_indices.shape[0]),
@@ -397,6 +411,7 @@ def plan(scene: Scene, calibration_frames: int = 2) -> dict:
             for s in solvers
         },
         "calibration_frames": frames,
+        "calibration_iterations": simulated,
         "stage_ms_per_frame": {name: 1000.0 * seconds for name, seconds in per_frame.items()},
         "estimated_bake_s": estimate,
     }
@@ -410,7 +425,7 @@ def format_plan(data: dict) -> str:
     ]
     for name, cloth in data["cloths"].items():
         lines.append(f"  {name}: {cloth['particles']} particles, {cloth['constraints']} constraints; stages {', '.join(cloth['stages'])}")
-    lines.append(f"  calibration over {data['calibration_frames']} frames, ms per frame:")
+    lines.append(f"  calibration over {data['calibration_iterations']} iterations, ms per frame:")
     for stage, ms in data["stage_ms_per_frame"].items():
         lines.append(f"    {stage:<14} {ms:9.3f}")
     lines.append(f"  estimated bake time {data['estimated_bake_s']:.2f} s (JIT compile and cache writing excluded)")

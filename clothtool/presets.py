@@ -119,8 +119,8 @@ def _convert(value: Any, annotation: Any, where: str) -> Any:
     if annotation is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise PresetError(f"{where}: expected a number, got {value!r}")
-        if math.isnan(value):
-            raise PresetError(f"{where}: NaN is not a valid value")
+        if not math.isfinite(value):
+            raise PresetError(f"{where}: {value} is not a valid value; give a finite number")
         return float(value)
     if annotation is str:
         if not isinstance(value, str):
@@ -149,7 +149,7 @@ def apply_mapping(instance, mapping: dict[str, Any], where: str, skip: tuple[str
     changes = {}
     for key, value in mapping.items():
         if key not in allowed:
-            raise PresetError(f"{where}: unknown key '{key}'; allowed keys: {', '.join(allowed)}")
+            raise PresetError(f"{where}: unknown key '{key}'; {did_you_mean(key, allowed)}")
         annotation = types_[key]
         current = getattr(instance, key)
         if dataclasses.is_dataclass(current) and isinstance(value, dict):
@@ -157,6 +157,16 @@ def apply_mapping(instance, mapping: dict[str, Any], where: str, skip: tuple[str
         else:
             changes[key] = _convert(value, annotation, f"{where}: key '{key}'")
     return dataclasses.replace(instance, **changes)
+
+
+def did_you_mean(key: str, allowed) -> str:
+    """'did you mean ...?' when a close match exists, else the list of allowed keys."""
+    import difflib
+
+    close = difflib.get_close_matches(str(key), list(allowed), n=1, cutoff=0.6)
+    if close:
+        return f"did you mean '{close[0]}'?"
+    return f"allowed keys: {', '.join(allowed) or 'none'}"
 
 
 def parse_override_value(text: str) -> Any:

@@ -17,7 +17,9 @@ def parse_frames(ctx, param, value):
     try:
         start, end = (int(v) for v in value.split(":"))
     except ValueError:
-        raise click.BadParameter(f"'{value}' is not START:END, e.g. 1:48") from None
+        raise click.BadParameter(f"'{value}' is not START:END with integer frame numbers, e.g. 1:48") from None
+    if end < start:
+        raise click.BadParameter(f"'{value}' runs backwards; give START:END with END >= START")
     return start, end
 
 
@@ -92,11 +94,15 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
     from clothtool.report import check_report_path, format_profile_table, format_summary, write_report
     from clothtool.scene.scene import load_scene
 
+    from clothtool.workload import check_workload
+
     overrides = list(overrides) + (["solver.force=true"] if force else [])
     if dry_run:
         from clothtool.bake import format_plan, plan
 
-        data = plan(load_scene(scene, list(overrides), frames, strict=strict))
+        loaded = load_scene(scene, list(overrides), frames, strict=strict)
+        check_workload(loaded, None, loaded.solver.force)
+        data = plan(loaded)
         emit_json(data) if as_json else click.echo(format_plan(data))
         return
     if output is None:
@@ -107,6 +113,7 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
     with recording_inputs() as inputs:
         loaded = load_scene(scene, list(overrides), frames, strict=strict)
     refuse_outputs_onto_inputs(output, report_path, inputs)
+    check_workload(loaded, output, loaded.solver.force)
     for cloth in loaded.cloths:
         for line in cloth.cook_warnings:
             warn(line)

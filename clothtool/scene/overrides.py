@@ -12,7 +12,7 @@ import copy
 import re
 
 from clothtool.errors import SceneError
-from clothtool.presets import parse_override_value
+from clothtool.presets import did_you_mean, parse_override_value
 
 _KEY = re.compile(r"^[A-Za-z0-9_\-]+(\.[A-Za-z0-9_\-]+)*$")
 
@@ -26,6 +26,51 @@ def parse_override(text: str) -> tuple[list[str], object]:
     if not _KEY.match(key):
         raise SceneError(f"--set {text}: '{key}' is not a dotted key like solver.frequency")
     return key.split("."), parse_override_value(value.strip())
+
+
+class Named:
+    """A schema level whose keys are names the scene defines (``cloth.<name>``), each with
+    the schema ``entry``."""
+
+    def __init__(self, entry):
+        self.entry = entry
+
+
+def _closest_name(name: str, section: str, names: list[str]) -> str:
+    if not names:
+        return f"it has no [{section}.*] tables"
+    suggestion = did_you_mean(name, names)
+    return suggestion if suggestion.startswith("did you") else f"its [{section}.*] tables: {', '.join(names)}"
+
+
+def check_override_keys(tables: dict, overrides: list[str], schema: dict) -> None:
+    """Refuse an override whose key the scene format does not have, blaming the command
+    line (not the scene file) and suggesting the closest key.
+
+    ``schema`` maps each key to its sub-schema: a dict, a ``Named``, or None for a value
+    (below a value nothing is checked here; the scene's own validation takes over).
+    """
+    for text in overrides:
+        path, _ = parse_override(text)
+        level, node = schema, tables
+        for depth, part in enumerate(path):
+            where = ".".join(path[:depth]) or "the scene"
+            if isinstance(level, Named):
+                names = list(node) if isinstance(node, dict) else []
+                if part not in names:
+                    section = path[depth - 1]
+                    raise SceneError(
+                        f"--set {text}: the scene has no [{section}.{part}]; "
+                        + _closest_name(part, section, names)
+                    )
+                level = level.entry
+            elif isinstance(level, dict):
+                if part not in level:
+                    raise SceneError(f"--set {text}: unknown key '{part}' in {where}; {did_you_mean(part, list(level))}")
+                level = level[part]
+            else:
+                break
+            node = node.get(part) if isinstance(node, dict) else None
 
 
 def apply_overrides(tables: dict, overrides: list[str]) -> dict:

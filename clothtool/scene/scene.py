@@ -17,8 +17,8 @@ import numpy as np
 from clothtool.errors import ClothtoolError, SceneError
 from clothtool.fabric import Fabric
 from clothtool.presets import read_toml
-from clothtool.scene.overrides import apply_overrides
-from clothtool.scene.trackload import load_track
+from clothtool.scene.overrides import Named, apply_overrides, check_override_keys
+from clothtool.scene.trackload import KEY_KEYS, TRACK_KEYS, load_track
 from clothtool.scene.tracks import Track, euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver.config import Material, SolverConfig, load_material, load_solver
 from clothtool.solver.model import BackstopSettings, MotionSettings, Placement
@@ -37,6 +37,7 @@ CLOTH_KEYS = (
     "track", "motion", "backstop", "initial_velocity",
 )
 STANDARD_GRAVITY = 9.81
+MAX_FPS = 10_000.0  # beyond it a "frame rate" is a typo (and iteration lengths underflow)
 COMPRESSIONS = ("gzip", "lzf", "none")
 
 
@@ -140,8 +141,8 @@ class _Context:
 def _scene_table(ctx: _Context, table: dict, frames: tuple[int, int] | None, default_name: str):
     ctx.check_keys(table, SCENE_KEYS, "scene")
     fps = ctx.number(table, "fps", "scene", default=24.0)
-    if not fps > 0:
-        ctx.fail("scene", f"key 'fps' = {fps:g} must be positive")
+    if not 0 < fps <= MAX_FPS:
+        ctx.fail("scene", f"key 'fps' = {fps:g} is not a frame rate; give a positive number up to {MAX_FPS:g}")
     frame_range = frames if frames is not None else table.get("frames", [1, 48])
     if (
         not isinstance(frame_range, (list, tuple))
@@ -246,7 +247,7 @@ def _cloth(ctx: _Context, name: str, table: dict, tracks: dict[str, Track], stri
     try:
         material = load_material(table.get("material", "cotton"), f"{ctx.path}: [{where}.material]")
     except ClothtoolError as exc:
-        ctx.fail(where, f"material: {exc}")
+        raise SceneError(_nested(exc, ctx.path, f"{ctx.path}: [{where}] material:")) from None
     scale = ctx.number(table, "scale", where, default=1.0, positive=True)
     placement = Placement(
         scale=scale,
@@ -292,6 +293,48 @@ def _wind(ctx: _Context, table: dict, tracks: dict[str, Track]) -> WindSettings:
     return WindSettings(velocity, track, density)
 
 
+def _keys(names, sub: dict | None = None) -> dict:
+    return {name: (sub or {}).get(name) for name in names}
+
+
+def _fields(cls) -> list[str]:
+    return [f.name for f in dataclasses.fields(cls)]
+
+
+def override_schema() -> dict:
+    """The keys ``--set`` may name (see clothtool.scene.overrides.check_override_keys)."""
+    from clothtool.cook.cooker import CookOptions
+    from clothtool.scene.colliders import COMMON_KEYS, KIND_KEYS
+    from clothtool.solver.config import PhaseSettings
+
+    phase = _keys(_fields(PhaseSettings))
+    phases = {label: phase for label in ("vertical", "horizontal", "shearing", "bending")}
+    material = _keys(["preset", *_fields(Material)], phases)
+    cook = _keys(["preset", *_fields(CookOptions)])
+    cloth = _keys(CLOTH_KEYS, {
+        "material": material, "cook": cook,
+        "motion": _keys(("scale", "bias", "stiffness")), "backstop": _keys(("radius", "distance")),
+    })
+    collider_keys = list(COMMON_KEYS) + [k for keys in KIND_KEYS.values() for k in keys if k not in COMMON_KEYS]
+    return {
+        "version": None,
+        "scene": _keys(SCENE_KEYS),
+        "solver": _keys(["preset", *_fields(SolverConfig)]),
+        "output": _keys(OUTPUT_KEYS),
+        "wind": _keys(WIND_KEYS),
+        "track": Named(_keys(TRACK_KEYS)),
+        "cloth": Named(cloth),
+        "collider": Named(_keys(dict.fromkeys(collider_keys))),
+    }
+
+
+def _nested(exc: ClothtoolError, path: Path, prefix: str) -> str:
+    """``exc``'s message under ``prefix``, unless it already names the scene file (the
+    settings loaders name the file and table themselves)."""
+    text = str(exc)
+    return text if text.startswith(str(path)) else f"{prefix} {text}"
+
+
 def load_scene(
     path: str | Path, overrides: list[str] = (), frames: tuple[int, int] | None = None, strict: bool = False
 ) -> Scene:
@@ -301,6 +344,7 @@ def load_scene(
     if not path.is_file():
         raise SceneError(f"{path}: scene file not found; check the path")
     raw = read_toml(path, error=SceneError)
+    check_override_keys(raw, list(overrides), override_schema())
     tables = apply_overrides(raw, list(overrides))
     ctx = _Context(path)
     unknown = [k for k in tables if k not in TOP_LEVEL_KEYS]
@@ -313,7 +357,7 @@ def load_scene(
     try:
         solver = load_solver(tables.get("solver", "production"), f"{path}: [solver]")
     except ClothtoolError as exc:
-        raise SceneError(f"{path}: [solver] {exc}") from None
+        raise SceneError(_nested(exc, path, f"{path}: [solver]")) from None
     output = _output_table(ctx, tables.get("output", {}))
     track_tables = tables.get("track", {})
     if not isinstance(track_tables, dict):

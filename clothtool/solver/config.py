@@ -9,6 +9,7 @@ and converted to scene units by the bake.
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Literal
 
 from clothtool.errors import PresetError
@@ -147,10 +148,10 @@ class SolverConfig:
     cloth_collision: bool = False
 
     def check(self, where: str) -> None:
-        if not self.frequency > 0:
-            raise PresetError(f"{where}: key 'frequency' = {self.frequency:g} must be positive (iterations per second)")
-        if not self.stiffness_frequency > 0:
-            raise PresetError(f"{where}: key 'stiffness_frequency' = {self.stiffness_frequency:g} must be positive")
+        for key in ("frequency", "stiffness_frequency"):
+            value = getattr(self, key)
+            if not (value > 0 and math.isfinite(value)):
+                raise PresetError(f"{where}: key '{key}' = {value:g} must be a positive, finite number of iterations per second")
         if not self.max_speed > 0:
             raise PresetError(f"{where}: key 'max_speed' must be positive")
         if self.sleep_threshold < 0 or self.sleep_test_interval <= 0 or self.sleep_after_count < 1:
