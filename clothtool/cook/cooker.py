@@ -165,7 +165,9 @@ def cook_fabric(mesh: ClothMesh, options: CookOptions = CookOptions(), source_sh
 
     prepared = prepare_mesh(mesh, options.weld, options.strict)
     clean = prepared.mesh
-    warnings = list(prepared.warnings)
+    if options.strict and mesh.warnings:
+        raise MeshError(f"{mesh.warnings[0].replace(': warning: ', ': ', 1)} (an error because of --strict)")
+    warnings = list(mesh.warnings) + list(prepared.warnings)
     pos = clean.vertex_pos.astype(np.float64)
     n = clean.vertex_count
     meters_per_unit = float(options.meters_per_unit or clean.meters_per_unit or 1.0)

@@ -34,6 +34,7 @@ class ClothMesh:
     source: str = "<memory>"
     meters_per_unit: float | None = None
     up_axis: str | None = None
+    warnings: tuple[str, ...] = ()  # problems the reader noticed but could read past
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "vertex_pos", np.ascontiguousarray(self.vertex_pos, np.float32))

@@ -335,6 +335,23 @@ def _nested(exc: ClothtoolError, path: Path, prefix: str) -> str:
     return text if text.startswith(str(path)) else f"{prefix} {text}"
 
 
+_MAGIC = {b"\x89HDF": "an HDF5 file (a fabric or a cache)", b"PXR-USDC": "a USD crate file", b"glTF": "a binary glTF mesh"}
+
+
+def _refuse_other_file_kinds(path: Path) -> None:
+    """A fabric, cache or mesh given where a scene belongs gets a hint, not a TOML error."""
+    with path.open("rb") as handle:
+        head = handle.read(8)
+    kind = next((what for magic, what in _MAGIC.items() if head.startswith(magic)), None)
+    if kind is None and path.suffix.lower() in (".obj", ".ply", ".stl", ".off", ".gltf", ".glb", ".usd", ".usda", ".usdc", ".usdz"):
+        kind = f"a mesh or USD file ({path.suffix})"
+    if kind is not None:
+        raise SceneError(
+            f"{path}: is {kind}, not a scene; bake takes a scene .toml (formats/scene/v1.md) whose "
+            "[cloth.NAME] tables name fabrics or meshes"
+        )
+
+
 def load_scene(
     path: str | Path, overrides: list[str] = (), frames: tuple[int, int] | None = None, strict: bool = False
 ) -> Scene:
@@ -343,6 +360,7 @@ def load_scene(
     path = Path(path)
     if not path.is_file():
         raise SceneError(f"{path}: scene file not found; check the path")
+    _refuse_other_file_kinds(path)
     raw = read_toml(path, error=SceneError)
     check_override_keys(raw, list(overrides), override_schema())
     tables = apply_overrides(raw, list(overrides))

@@ -14,11 +14,17 @@ _USD_SCALAR_TYPES = ("float", "double", "half", "int", "uint", "int64", "uint64"
 
 
 def read(source: str, prim: str | None) -> ClothMesh:
+    from clothtool.io.usd_env import quiet_stderr
     from pxr import Sdf, Usd, UsdGeom
 
-    stage = Usd.Stage.Open(source)
+    with quiet_stderr():  # composition problems are reported below, in one line each
+        stage = Usd.Stage.Open(source)
     if stage is None:
         raise _invalid(source, "USD could not open the stage")
+    warnings = tuple(
+        f"{source}: warning: {' '.join(str(error).split()).rstrip('.')}; fix the asset path in the file"
+        for error in stage.GetCompositionErrors()
+    )
     for layer in stage.GetUsedLayers():  # sublayers and references are inputs too
         if layer.realPath:
             note_input(layer.realPath)
@@ -103,6 +109,7 @@ def read(source: str, prim: str | None) -> ClothMesh:
         source=source,
         meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
         up_axis=up_axis,
+        warnings=warnings,
     )
 
 
