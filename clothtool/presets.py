@@ -45,6 +45,8 @@ def read_toml(path: Path, error=PresetError) -> dict[str, Any]:
         raise error(f"{path}: cannot be read ({exc}); check the file") from None
     try:
         return tomllib.loads(text)
+    except RecursionError:
+        raise error(f"{path}: TOML nested too deeply (arrays or tables inside each other thousands of levels down); simplify the file") from None
     except tomllib.TOMLDecodeError as exc:
         raise error(f"{path}: malformed TOML {_where(str(exc), text)}; fix the syntax there") from None
 

@@ -297,11 +297,7 @@ def _collider(ctx, name: str, table: dict, tracks: dict[str, Track], fps: float)
     if kind not in KINDS:
         ctx.fail(where, f"key 'kind' = {kind!r}; use one of {', '.join(KINDS)}")
     ctx.check_keys(table, COMMON_KEYS + KIND_KEYS[kind], where)
-    track = None
-    if "track" in table:
-        if table["track"] not in tracks:
-            ctx.fail(where, f"key 'track' names '{table['track']}', but the scene has no [track.{table['track']}]")
-        track = tracks[table["track"]]
+    track = ctx.track(table, where, tracks)
     thickness = ctx.number(table, "thickness", where, default=0.0)
     # no friction given: the colliding cloth's material friction applies (NaN marks that)
     friction = ctx.number(table, "friction", where) if "friction" in table else float("nan")

@@ -127,6 +127,15 @@ class _Context:
             self.fail(where, f"key '{key}' = {value!r} must be positive")
         return float(value)
 
+    def track(self, table, where: str, tracks: dict[str, Track]) -> Track | None:
+        """The track that ``table``'s 'track' key names, or None without one."""
+        if "track" not in table:
+            return None
+        name = table["track"]
+        if not isinstance(name, str) or name not in tracks:
+            self.fail(where, f"key 'track' = {name!r} names no [track.NAME] of this scene; tracks: {', '.join(tracks) or 'none'}")
+        return tracks[name]
+
     def vector(self, table, key, where, size=3, default=None):
         value = table.get(key, default)
         try:
@@ -254,12 +263,7 @@ def _cloth(ctx: _Context, name: str, table: dict, tracks: dict[str, Track], stri
         rotation=_rotation(ctx, table, where),
         translation=ctx.vector(table, "translate", where, default=[0.0, 0.0, 0.0]),
     )
-    track = None
-    if "track" in table:
-        track_name = table["track"]
-        if track_name not in tracks:
-            ctx.fail(where, f"key 'track' names '{track_name}', but the scene has no [track.{track_name}]; tracks: {', '.join(tracks) or 'none'}")
-        track = tracks[track_name]
+    track = ctx.track(table, where, tracks)
     motion_table = ctx.check_keys(table.get("motion", {}), ("scale", "bias", "stiffness"), f"{where}.motion")
     motion = MotionSettings(
         scale=ctx.number(motion_table, "scale", f"{where}.motion", default=1.0),
@@ -281,11 +285,7 @@ def _cloth(ctx: _Context, name: str, table: dict, tracks: dict[str, Track], stri
 
 def _wind(ctx: _Context, table: dict, tracks: dict[str, Track]) -> WindSettings:
     ctx.check_keys(table, WIND_KEYS, "wind")
-    track = None
-    if "track" in table:
-        if table["track"] not in tracks:
-            ctx.fail("wind", f"key 'track' names '{table['track']}', which is not a [track.*] of this scene")
-        track = tracks[table["track"]]
+    track = ctx.track(table, "wind", tracks)
     velocity = ctx.vector(table, "velocity", "wind", default=[0.0, 0.0, 0.0])
     density = ctx.number(table, "fluid_density", "wind", default=1.2)
     if density < 0:

@@ -46,6 +46,8 @@ def _scale(value, where: str) -> np.ndarray:
 
 
 def _keys_from_table(keys: list, where: str):
+    if not isinstance(keys, list) or not keys:
+        raise SceneError(f"{where}: key 'keys' must be a list of tables like {{ time = 1, translate = [0, 1, 0] }}")
     times, translations, rotations, scales = [], [], [], []
     translation, rotation, scale = np.zeros(3), np.array([1.0, 0.0, 0.0, 0.0]), np.ones(3)
     for i, key in enumerate(keys):

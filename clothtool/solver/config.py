@@ -166,6 +166,8 @@ class SolverConfig:
 def _load_settings(kind: str, cls, name_or_table: str | dict, where: str):
     """Settings of ``cls`` from a preset of ``kind`` named by a string, or from a table with an
     optional ``preset`` key plus overrides; checked."""
+    if not isinstance(name_or_table, (str, dict)):
+        raise PresetError(f"{where}: {name_or_table!r} is neither a {kind} preset name nor a table; give a name such as \"{ {'material': 'cotton', 'solver': 'production'}.get(kind, kind) }\" or a table of keys")
     table = {"preset": name_or_table} if isinstance(name_or_table, str) else dict(name_or_table)
     settings = cls()
     preset = table.pop("preset", None)

@@ -60,7 +60,8 @@ def read(source: str, prim: str | None) -> ClothMesh:
     # EarliestTime: the value of a static transform, the first sample of an animated one (at
     # Default a transform with samples only reads as identity).
     matrix = np.array(mesh.ComputeLocalToWorldTransform(Usd.TimeCode.EarliestTime()), np.float64)
-    points = points @ matrix[:3, :3] + matrix[3, :3]  # USD matrices act on row vectors
+    with np.errstate(invalid="ignore", over="ignore"):  # NaN points are the cooker's to report
+        points = points @ matrix[:3, :3] + matrix[3, :3]  # USD matrices act on row vectors
 
     n = len(points)
     attrs, uv_primvars = {}, []
