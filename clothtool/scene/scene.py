@@ -132,8 +132,11 @@ class _Context:
         if "track" not in table:
             return None
         name = table["track"]
-        if not isinstance(name, str) or name not in tracks:
-            self.fail(where, f"key 'track' = {name!r} names no [track.NAME] of this scene; tracks: {', '.join(tracks) or 'none'}")
+        known = f"tracks: {', '.join(tracks) or 'none'}"
+        if not isinstance(name, str):
+            self.fail(where, f"key 'track' = {name!r} must be the name of a [track.NAME] table; {known}")
+        if name not in tracks:
+            self.fail(where, f"key 'track' = {name!r}: the scene has no [track.{name}]; {known}")
         return tracks[name]
 
     def vector(self, table, key, where, size=3, default=None):
