@@ -269,3 +269,19 @@ def test_inspect_of_a_large_usdc_under_an_address_space_limit(tmp_path):
                           timeout=300, preexec_fn=limit, env=env)
     assert proc.returncode == 0, proc.stderr
     assert "complete" in proc.stdout and "200 written" in proc.stdout
+
+
+def test_gltf_buffer_outside_its_folder_is_refused_without_library_hints(tmp_path):
+    import json
+
+    import trimesh
+
+    mesh = grid(3, 3, 0.1, plane="XZ")
+    files = trimesh.Trimesh(mesh.vertex_pos, mesh.face_vertex_indices.reshape(-1, 3), process=False).export(file_type="gltf")
+    gltf = json.loads(files["model.gltf"])
+    gltf["buffers"][0]["uri"] = "../../../etc/hostname"
+    (tmp_path / "climb.gltf").write_text(json.dumps(gltf))
+    result = run("cook", tmp_path / "climb.gltf", "-o", tmp_path / "x.fabric.h5")
+    assert result.exit_code == 1
+    line = one_error_line(result)
+    assert "points outside the file's folder" in line and "FilePathResolver" not in line and str(tmp_path) not in line

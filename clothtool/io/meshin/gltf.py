@@ -32,6 +32,7 @@ def read(source: str, prim: str | None) -> ClothMesh:
     gltf, binary = _gltf_split(Path(source).read_bytes(), source)
     if not isinstance(gltf, dict):
         raise _invalid(source, "the JSON is not a glTF object")
+    _check_buffer_uris(gltf, source)
     gltf["materials"] = [{}]
     for key in ("textures", "images", "samplers"):
         gltf.pop(key, None)
@@ -56,6 +57,18 @@ def read(source: str, prim: str | None) -> ClothMesh:
         if isinstance(geometry, trimesh.Trimesh) and len(geometry.faces):
             pieces.append(_gltf_piece(geometry, np.asarray(matrix, np.float64)))
     return _concatenate(pieces, source)
+
+
+def _check_buffer_uris(gltf: dict, source: str) -> None:
+    """External buffers must lie beside the .gltf (or below its folder): a URI that climbs out
+    of it would read an unrelated file."""
+    folder = Path(source).resolve().parent
+    for index, buffer in enumerate(gltf.get("buffers") or []):
+        uri = buffer.get("uri") if isinstance(buffer, dict) else None
+        if not isinstance(uri, str) or uri.startswith("data:"):
+            continue
+        if not (folder / uri).resolve().is_relative_to(folder):
+            raise _invalid(source, f"buffer {index} points outside the file's folder ('{uri}'); keep its .bin beside the .gltf")
 
 
 def _gltf_node_index(frame) -> int:
