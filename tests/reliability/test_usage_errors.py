@@ -284,4 +284,4 @@ def test_gltf_buffer_outside_its_folder_is_refused_without_library_hints(tmp_pat
     result = run("cook", tmp_path / "climb.gltf", "-o", tmp_path / "x.fabric.h5")
     assert result.exit_code == 1
     line = one_error_line(result)
-    assert "points outside the file's folder" in line and "FilePathResolver" not in line and str(tmp_path) not in line
+    assert "points outside the file's folder" in line and "FilePathResolver" not in line and line.count(str(tmp_path)) == 1
