@@ -20,7 +20,7 @@ from clothtool.errors import UnstableError
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer, partial_path
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
-from clothtool.solver.cloth import ClothSolver
+from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
 from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import Pose
 from clothtool.solver.measure import ClothMeter
@@ -139,21 +139,10 @@ def _track_pose(track):
     return pose
 
 
-def _solver_class(integrator: str):
-    """The solver class of ``solver.integrator`` (imported only when a scene asks for it)."""
-    if integrator == "implicit":
-        from clothtool.integrators.implicit.solver import ImplicitClothSolver
-
-        return ImplicitClothSolver
-    if integrator == "explicit":
-        from clothtool.integrators.explicit.solver import ExplicitClothSolver
-
-        return ExplicitClothSolver
-    return ClothSolver
-
-
-def make_solvers(scene: Scene, profiler: StageProfiler) -> list[ClothSolver]:
-    """One ClothSolver per cloth instance of ``scene``."""
+def make_solvers(scene: Scene, profiler: StageProfiler) -> list[Integrator]:
+    """One solver of the scene's integrator per cloth instance (after checking the
+    integrator can do all the scene asks for)."""
+    solver_class = check_capabilities(scene).load()
     wind = None
     density = AIR_DENSITY
     if scene.wind is not None:
@@ -169,7 +158,6 @@ def make_solvers(scene: Scene, profiler: StageProfiler) -> list[ClothSolver]:
         )
         track = _track_pose(cloth.track) if cloth.track is not None else None
         teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
-        solver_class = _solver_class(scene.solver.integrator)
         extra = {"frame_dt": 1.0 / scene.fps} if scene.solver.integrator == "explicit" else {}
         solvers.append(
             solver_class(model, scene.solver, environment, profiler, track, teleports, cloth.initial_velocity, **extra)
@@ -180,7 +168,19 @@ def make_solvers(scene: Scene, profiler: StageProfiler) -> list[ClothSolver]:
     return solvers
 
 
-def _topology(solver: ClothSolver, attributes: frozenset[str]) -> ClothTopology:
+def _does_without(scene: Scene, solver: Integrator) -> dict:
+    """What the cloth's fabric carries that its integrator does without, and why."""
+    spec = integrator_spec(scene.solver.integrator)
+    model = solver.model
+    unused = {}
+    if "tethers" in spec.does_without and model.has_tethers and model.material.tether_stiffness > 0:
+        unused["tethers"] = spec.does_without["tethers"]
+    if "lift" in spec.does_without and model.material.lift_coefficient > 0:
+        unused["lift"] = spec.does_without["lift"]
+    return {"does_without": unused} if unused else {}
+
+
+def _topology(solver: Integrator, attributes: frozenset[str]) -> ClothTopology:
     fabric = solver.model.fabric
     primvars = {"inv_mass": solver.model.inv_mass}
     if solver.model.has_motion_constraints:
@@ -207,7 +207,7 @@ def _frame_stats_fields(stats: dict) -> dict[str, float]:
     }
 
 
-def _check_stable(scene: Scene, frame: int, solver: ClothSolver, stats: dict) -> None:
+def _check_stable(scene: Scene, frame: int, solver: Integrator, stats: dict) -> None:
     name = solver.model.name
     if not stats["finite"]:
         raise UnstableError(
@@ -258,7 +258,8 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                 "constraints": int(s.model.constraint_indices.shape[0]),
                 "source": c.source,
                 "stages": s.stage_names,
-                **({"stability": s.stability} if hasattr(s, "stability") else {}),
+                **s.cloth_report(),
+                **_does_without(scene, s),
             }
             for s, c in zip(solvers, scene.cloths)
         },
@@ -312,8 +313,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                     for solver, meter, plan in zip(solvers, meters, plans):
                         cloth_stats = meter.measure(plan.h, options.percentiles)
                         cloth_stats["asleep"] = solver.asleep  # asleep at the frame's end
-                        if hasattr(solver, "frame_stats"):  # e.g. the implicit solver's CG figures
-                            cloth_stats.update(solver.frame_stats())
+                        cloth_stats.update(solver.frame_stats())  # e.g. the implicit solver's CG figures
                         per_cloth[solver.model.name] = cloth_stats
                     stats.per_frame.append({"frame": frame, "cloths": per_cloth})
                     stats.frames_simulated += 1
@@ -357,7 +357,7 @@ def _with_colliders(scene: Scene, frame: FrameData) -> FrameData:
     )
 
 
-def _initial_frame(scene: Scene, solvers: list[ClothSolver], attributes) -> FrameData:
+def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> FrameData:
     velocities = None
     if "velocities" in attributes:
         velocities = []

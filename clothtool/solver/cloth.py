@@ -176,6 +176,15 @@ class ClothSolver:
             self.iterate(self.iteration(plan, index))
         return plan
 
+    # ------------------------------------------------------------------ report
+    def frame_stats(self) -> dict:
+        """Integrator-specific figures of the last frame (none for this one)."""
+        return {}
+
+    def cloth_report(self) -> dict:
+        """Integrator-specific facts about the cloth for the bake report (none for this one)."""
+        return {}
+
     # ------------------------------------------------------------------ output
     def world_points(self) -> np.ndarray:
         """(n,3) current positions in world space (scene units), in the state's precision."""

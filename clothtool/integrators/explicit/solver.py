@@ -139,7 +139,7 @@ class ExplicitClothSolver:
         """Raise UnstableError when the substep h exceeds the stability limit (times the
         accepted factor), unless ``config.force`` is set."""
         h_max = self.stability["h_max_s"]
-        if h <= self.stability["factor"] * h_max or getattr(self.config, "force", False):
+        if h <= self.stability["factor"] * h_max or self.config.force:
             return
         frequency = 1.0 / h_max
         if frame_dt is not None:  # the lowest frequency whose rounded substep count is enough
@@ -259,6 +259,14 @@ class ExplicitClothSolver:
             )
 
     # ------------------------------------------------------------------ output
+    def frame_stats(self) -> dict:
+        """Integrator-specific figures of the last frame (none for this one)."""
+        return {}
+
+    def cloth_report(self) -> dict:
+        """The stability analysis of the substep, for the bake report."""
+        return {"stability": self.stability}
+
     def world_points(self) -> np.ndarray:
         """(n,3) current positions in world space (scene units), in the state's precision."""
         return np.ascontiguousarray(self.state.cur[:, :3])

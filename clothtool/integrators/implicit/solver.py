@@ -158,7 +158,7 @@ class ImplicitClothSolver:
         # below the threshold a step runs on one thread: a parallel region costs a thread
         # wake-up per launch (microseconds, milliseconds on a busy machine) and a CG
         # iteration launches four
-        self.single_thread = n < int(getattr(config, "parallel_threshold", 20000))
+        self.single_thread = n < config.parallel_threshold
 
         # static data
         self.rest = build_rest_shape(model.rest_pos, model.triangles, triangle_corner_uvs(model.fabric))
@@ -304,6 +304,10 @@ class ImplicitClothSolver:
                     self.project(h)
             with self.profiler.stage("integrate"):
                 self.integrate(h)
+
+    def cloth_report(self) -> dict:
+        """Integrator-specific facts about the cloth for the bake report (none for this one)."""
+        return {}
 
     def frame_stats(self) -> dict:
         """Totals over the current frame's steps: steps, CG iterations, the largest final

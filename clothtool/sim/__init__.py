@@ -1,0 +1,1 @@
+"""What every integrator shares: the integrator contract and registry (``integrators``)."""

@@ -1,0 +1,140 @@
+"""The integrator contract: what every integrator offers the bake, which integrators exist,
+and what each can do.
+
+The bake drives any integrator through ``Integrator`` (one instance per cloth). Each
+integrator declares its capabilities; ``check_capabilities`` compares them with what a scene
+asks for and refuses a scene that asks for something its integrator cannot do, naming the
+scene key, instead of ignoring it. What an integrator does without (a position-based device
+such as tethers, which the force-based integrators replace with stiff stretch) is declared
+too and listed in the bake report.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from clothtool.errors import SceneError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from clothtool.scene.scene import Scene
+    from clothtool.solver.iteration import FramePlan, Iteration
+    from clothtool.solver.model import ClothModel
+
+
+class Integrator(Protocol):
+    """One cloth's solver, as the bake drives it (see clothtool.bake)."""
+
+    model: "ClothModel"
+    stage_names: list[str]
+
+    @property
+    def asleep(self) -> bool: ...
+
+    def set_neighbours(self, neighbours) -> None:
+        """The scene's other cloths (cloth-cloth collision); before the first frame."""
+
+    def warm_up(self) -> None:
+        """Compile the kernels this cloth's stages use."""
+
+    def plan_frame(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> "FramePlan": ...
+
+    def iteration(self, plan: "FramePlan", index: int) -> "Iteration": ...
+
+    def iterate(self, iteration: "Iteration") -> None: ...
+
+    def step(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> "FramePlan": ...
+
+    def frame_stats(self) -> dict:
+        """Integrator-specific figures of the last frame for the report ({} when none)."""
+
+    def world_points(self) -> np.ndarray: ...
+
+    def world_velocities(self, h: float) -> np.ndarray: ...
+
+
+# Capabilities a scene can ask for, with the scene key that asks.
+CAPABILITIES = {
+    "tracks": "a cloth that follows a track (cloth.NAME.track)",
+    "motion": "painted max-distance motion constraints (the fabric's max distance)",
+    "separation": "backstop separation spheres (cloth.NAME.backstop)",
+    "continuous_collision": "continuous collision (solver.continuous_collision)",
+    "self_collision": "self-collision (solver.self_collision)",
+    "cloth_collision": "cloth-cloth collision (solver.cloth_collision)",
+    "sleep": "sleeping (solver.sleep_threshold > 0)",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class IntegratorSpec:
+    """A registered integrator: where its class lives (imported only when used), what it can
+    do, and what it does without (feature -> why)."""
+
+    name: str
+    module: str
+    class_name: str
+    capabilities: frozenset[str]
+    does_without: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def load(self):
+        return getattr(importlib.import_module(self.module), self.class_name)
+
+
+_FORCES_HOLD = "the stretch forces and the strain limit hold the cloth; tethers are a position-based device"
+_NO_LIFT = "air acts as drag along the triangle's normal only (the material's lift coefficient is a position-based setting)"
+REGISTRY: dict[str, IntegratorSpec] = {
+    "pbd": IntegratorSpec("pbd", "clothtool.solver.cloth", "ClothSolver", frozenset(CAPABILITIES)),
+    "implicit": IntegratorSpec(
+        "implicit", "clothtool.integrators.implicit.solver", "ImplicitClothSolver", frozenset({"motion"}),
+        {"tethers": _FORCES_HOLD, "lift": _NO_LIFT},
+    ),
+    "explicit": IntegratorSpec(
+        "explicit", "clothtool.integrators.explicit.solver", "ExplicitClothSolver", frozenset(),
+        {"tethers": "spring forces hold the cloth; tethers are a position-based device", "lift": _NO_LIFT},
+    ),
+}
+
+
+def integrator_spec(name: str) -> IntegratorSpec:
+    if name not in REGISTRY:
+        raise SceneError(f"solver.integrator = {name!r} is not an integrator; use one of {', '.join(REGISTRY)}")
+    return REGISTRY[name]
+
+
+def requested_capabilities(scene: "Scene") -> dict[str, str]:
+    """capability -> the first place in ``scene`` that asks for it."""
+    asked: dict[str, str] = {}
+    solver = scene.solver
+    if solver.continuous_collision and scene.colliders is not None and len(scene.colliders):
+        asked["continuous_collision"] = "solver.continuous_collision = true"
+    if solver.self_collision:
+        asked["self_collision"] = "solver.self_collision = true"
+    if solver.cloth_collision and len(scene.cloths) > 1:
+        asked["cloth_collision"] = "solver.cloth_collision = true"
+    if solver.sleep_threshold > 0:
+        asked["sleep"] = f"solver.sleep_threshold = {solver.sleep_threshold:g}"
+    for cloth in scene.cloths:
+        where = f"cloth.{cloth.name}"
+        if cloth.track is not None:
+            asked.setdefault("tracks", f"{where}.track")
+        if cloth.backstop is not None:
+            asked.setdefault("separation", f"{where}.backstop")
+        if np.isfinite(cloth.fabric.particle_max_distance).any():
+            asked.setdefault("motion", f"{where}: its fabric's painted max distance")
+    return asked
+
+
+def check_capabilities(scene: "Scene") -> IntegratorSpec:
+    """The scene's integrator, after refusing a scene that asks for what it cannot do."""
+    spec = integrator_spec(scene.solver.integrator)
+    for capability, where in requested_capabilities(scene).items():
+        if capability not in spec.capabilities:
+            can = [name for name, other in REGISTRY.items() if capability in other.capabilities]
+            raise SceneError(
+                f"{scene.path.name}: {where} asks for {CAPABILITIES[capability]}, which the {spec.name} integrator "
+                f"does not do; remove it or use solver.integrator = {' or '.join(repr(c) for c in can)}"
+            )
+    return spec
