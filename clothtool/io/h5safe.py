@@ -13,7 +13,7 @@ creation properties are checked. HDF5 otherwise happily:
 
 ``check_hdf5_file(f, path, fix)`` raises FormatError naming the file, the dataset or link
 and ``fix`` (what the user should do, e.g. "re-cook it") on the first of these it meets.
-``read_dataset`` reads a checked dataset after checking its dtype and shape.
+``read_dataset`` reads a checked dataset after ``check_layout`` has checked its dtype and shape.
 """
 
 from __future__ import annotations
@@ -126,9 +126,19 @@ def check_dataset(dataset, path, name: str, fix: str) -> None:
 
 
 def read_dataset(dataset, path, name: str, dtype, ndim: int, fix: str, width: int | None = None) -> np.ndarray:
-    """The whole of a checked dataset as ``dtype``, refusing another dtype (no silent casts:
-    float indices would be truncated) or another number of dimensions / last-axis width
-    before any data is read."""
+    """The whole of a checked dataset, refusing another dtype (no silent casts: float indices
+    would be truncated) or another number of dimensions / last-axis width before any data
+    is read."""
+    import h5py
+
+    if not isinstance(dataset, h5py.Dataset):
+        raise FormatError(f"{path}: '{name}' is a {type(dataset).__name__}, expected a dataset; {fix}")
+    check_layout(dataset, path, name, dtype, ndim, fix, width)
+    return np.asarray(dataset[()], dtype)
+
+
+def check_layout(dataset, path, name: str, dtype, ndim: int, fix: str, width: int | None = None) -> None:
+    """Refuse a dataset of another dtype, number of dimensions or last-axis width."""
     dtype = np.dtype(dtype)
     if dataset.dtype != dtype:
         raise FormatError(f"{path}: dataset '{name}' has dtype {dataset.dtype}, expected {dtype}; {fix}")
@@ -136,4 +146,3 @@ def read_dataset(dataset, path, name: str, dtype, ndim: int, fix: str, width: in
     if len(shape) != ndim or (width is not None and shape[-1] != width):
         want = f"{ndim} dimensions" + (f" with last axis {width}" if width is not None else "")
         raise FormatError(f"{path}: dataset '{name}' has shape {shape}, expected {want}; {fix}")
-    return np.asarray(dataset[()], dtype)
