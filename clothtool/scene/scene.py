@@ -165,7 +165,9 @@ def _scene_table(ctx: _Context, table: dict, frames: tuple[int, int] | None, def
         gravity = -up * STANDARD_GRAVITY / mpu
     if np.linalg.norm(gravity) * mpu > 1000.0:
         ctx.fail("scene", f"key 'gravity' is {np.linalg.norm(gravity) * mpu:.3g} m/s^2; it is in scene units/s^2 (check meters_per_unit)")
-    name = str(table.get("name", default_name))
+    name = table.get("name", default_name)
+    if not isinstance(name, str) or not name.strip():
+        ctx.fail("scene", f"key 'name' must be a non-empty string, got {name!r}; e.g. name = \"shot_010\"")
     return name, fps, int(start), int(end), mpu, up_axis, gravity
 
 
