@@ -18,6 +18,12 @@ def read(source: str, prim: str | None) -> ClothMesh:
     stage = Usd.Stage.Open(source)
     if stage is None:
         raise _invalid(source, "USD could not open the stage")
+    meters_per_unit = float(UsdGeom.GetStageMetersPerUnit(stage))
+    if not (np.isfinite(meters_per_unit) and meters_per_unit > 0):  # 0 would be read as "unset"
+        raise MeshError(
+            f"{source}: stage metadata metersPerUnit = {meters_per_unit:g}; it must be a positive size "
+            "(0.01 for centimetres, 1 for metres), fix it in the export"
+        )
     found = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
     if prim is not None:
         absolute = prim.startswith("/") and Sdf.Path.IsValidPathString(prim)
@@ -88,7 +94,7 @@ def read(source: str, prim: str | None) -> ClothMesh:
         face_vertex_uv=face_uv,
         vertex_attrs=attrs,
         source=source,
-        meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
+        meters_per_unit=meters_per_unit,
         up_axis=str(UsdGeom.GetStageUpAxis(stage)),
     )
 
