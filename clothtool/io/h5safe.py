@@ -44,14 +44,14 @@ def check_hdf5_file(f, path, fix: str) -> None:
     import h5py
 
     seen: set = set()
-    stack = [("/", f)]
+    stack = [("", f)]  # (path inside the file without the leading '/', group)
     while stack:
         group_name, group = stack.pop()
         if group.id in seen:  # a hard link back up the tree: already walked
             continue
         seen.add(group.id)
         for name in sorted(group):
-            full = group_name.rstrip("/") + "/" + name
+            full = f"{group_name}/{name}" if group_name else name
             link = group.get(name, getlink=True)
             if isinstance(link, h5py.ExternalLink):
                 _refuse(path, f"link '{full}'", f"is an external link to {link.filename!r}", fix)
@@ -75,7 +75,7 @@ def _resolve_soft(f, path, where: str, target: str, fix: str) -> None:
 
     hops = 0
     pending = [target]  # paths still to resolve; a soft link met on the way pushes its target
-    base = where.rsplit("/", 1)[0] or "/"
+    base = "/" + where.rsplit("/", 1)[0] if "/" in where else "/"
     while pending:
         target = pending.pop()
         parts = [p for p in (target if target.startswith("/") else base + "/" + target).split("/") if p]
