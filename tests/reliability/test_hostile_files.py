@@ -20,9 +20,9 @@ from click.testing import CliRunner
 from clothtool.cli import main
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.errors import FormatError, MeshError, PresetError, SceneError
-from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData
+from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer, read_cache
 from clothtool.io.fabric_file import read_fabric, write_fabric
-from clothtool.io.h5cache import H5CacheWriter, read_h5_cache
+from clothtool.io.h5cache import read_h5_cache
 from clothtool.io.meshin import read_mesh
 from clothtool.mesh.shapes import grid
 from clothtool.presets import load_preset
@@ -66,17 +66,20 @@ def cache_header(side: int = 25) -> CacheHeader:
     return CacheHeader(30.0, 1, 4, 1.0, "Y", (topology,), (), frozenset({"velocities", "rest"}))
 
 
-@pytest.fixture
-def cache_path(out_dir: Path) -> Path:
-    path = out_dir / "shot.h5"
+def write_small_cache(path: Path) -> Path:
     header = cache_header()
     rest = header.cloths[0].rest_pos
-    with H5CacheWriter(path, CacheOptions()) as writer:
+    with open_cache_writer(path, CacheOptions()) as writer:
         writer.write_header(header)
         for frame in range(1, 5):
             writer.write_frame(FrameData(frame, (rest + np.float32(0.01 * frame),), (np.zeros_like(rest),)))
         writer.commit()
     return path
+
+
+@pytest.fixture
+def cache_path(out_dir: Path) -> Path:
+    return write_small_cache(out_dir / "shot.h5")
 
 
 @pytest.fixture
@@ -292,6 +295,26 @@ def test_bad_cache_data_is_refused(cache_path, case):
 def test_intact_cache_reads_complete(cache_path):
     with read_h5_cache(cache_path) as cache:
         assert cache.summary()["complete"] and cache.frames == [1, 2, 3, 4]
+
+
+@pytest.mark.parametrize(
+    "key, value, message",
+    [
+        ("metersPerUnit", 0.0, "meters_per_unit is 0.0; give a positive unit size"),
+        ("timeCodesPerSecond", float("nan"), "fps is nan"),
+    ],
+)
+def test_bad_usd_cache_metadata_is_refused(out_dir, key, value, message):
+    from pxr import Sdf
+
+    path = write_small_cache(out_dir / "shot.usda")
+    layer = Sdf.Layer.FindOrOpen(str(path))
+    layer.pseudoRoot.SetInfo(key, value)
+    layer.Save()
+    with pytest.raises(FormatError, match="bake it again") as info:
+        read_cache(path)
+    assert message in str(info.value) and str(path) in str(info.value)
+    assert_one_line_failure(run("inspect", path), message)
 
 
 # --------------------------------------------------------------------------- meshes
