@@ -300,9 +300,9 @@ def load_scene(
     """Read and validate a scene file (see module docstring); ``strict`` makes mesh repairs
     of cloths cooked on the fly errors."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise SceneError(f"{path}: scene file not found; check the path")
-    raw = read_toml(path, error=SceneError)
+    raw = read_toml(path, error=SceneError)  # refuses devices, FIFOs and huge files unread
     tables = apply_overrides(raw, list(overrides))
     ctx = _Context(path)
     unknown = [k for k in tables if k not in TOP_LEVEL_KEYS]

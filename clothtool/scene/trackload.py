@@ -196,10 +196,10 @@ def _check_npz(path: Path, where: str) -> None:
             except (ValueError, OSError, zipfile.BadZipFile, EOFError) as exc:
                 raise SceneError(f"{where}: {path.name}: member '{name[:40]}' is not a numpy array ({type(exc).__name__}); save the file with numpy.savez") from None
             if dtype.kind not in "iuf" or dtype.fields is not None:
-                raise SceneError(f"{where}: {path.name}: '{name[:40]}' holds {dtype} values; tracks need plain numbers (no strings or objects)")
+                raise SceneError(f"{where}: {path.name}: '{name[:40]}' holds {dtype} values; tracks need plain numbers (no strings or objects), save number arrays with numpy.savez")
             declared = int(np.prod(shape, dtype=object)) * dtype.itemsize
             if declared > info.file_size:
-                raise SceneError(f"{where}: {path.name}: '{name[:40]}' claims shape {shape} ({declared:,} bytes) but holds {info.file_size:,}; the file is damaged")
+                raise SceneError(f"{where}: {path.name}: '{name[:40]}' claims shape {shape} ({declared:,} bytes) but holds {info.file_size:,}; the file is damaged, save it again with numpy.savez")
 
 
 def _read_npz(path: Path, where: str):

@@ -9,6 +9,7 @@ cycles, virtual datasets, forged headers, bad values).
 from __future__ import annotations
 
 import json
+import os
 import zipfile
 from pathlib import Path
 
@@ -406,6 +407,18 @@ def test_preset_device_file_is_refused_before_reading(scene_dir):
     path = scene_dir / "scene.toml"
     path.write_text(text)
     assert_one_line_failure(run("bake", path, "-o", scene_dir / "out.h5"), "/dev/zero", "not a regular file")
+
+
+def test_fifo_preset_scene_and_track_are_refused_without_blocking(scene_dir):
+    # Opening a FIFO for reading blocks until a writer comes: reaching the end proves no read.
+    fifo = scene_dir / "pipe.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(PresetError, match="pipe.toml: is not a regular file"):
+        load_preset("material", str(fifo))
+    with pytest.raises(SceneError, match="pipe.toml: is not a regular file"):
+        load_scene(fifo)
+    os.mkfifo(scene_dir / "pipe.csv")
+    assert "track file pipe.csv is not a regular file" in scene_error(scene_dir, track_scene(scene_dir, "pipe.csv"))
 
 
 def test_preset_too_big_is_refused(scene_dir):
