@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from clothtool.errors import ClothtoolError
+from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.cache import CacheHeader, ClothTopology, ColliderInfo, FrameData, partial_path
 
 FORMAT_NAME = "clothtool-cache"
@@ -275,8 +275,6 @@ class CacheReader:
         """Refuse a reconstructed header a writer would have refused (checked against the
         requested frame range, so a partial file passes) and frames that are not consecutive
         from the start frame; raises FormatError naming the file and the element."""
-        from clothtool.errors import FormatError
-
         header, fix = self.header, "the file is damaged, bake it again"
         for key in ("fps", "meters_per_unit"):
             if not np.isfinite(getattr(header, key)):
