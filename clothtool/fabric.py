@@ -217,6 +217,46 @@ def _check_index_range(name: str, indices: np.ndarray, count: int) -> None:
         _fail(name, f"row {row} holds {flat[row].tolist()}, outside [0, {count})")
 
 
+def _check_not_negative(name: str, values: np.ndarray, what: str = "values") -> None:
+    if values.size and np.any(values < 0):
+        entry = int(np.flatnonzero(values < 0)[0])
+        _fail(name, f"holds negative {what} (entry {entry} is {float(values[entry]):g}); they must be >= 0")
+
+
+def _check_hang_direction(hang) -> None:
+    hang = np.asarray(hang)
+    if hang.shape != (3,) or hang.dtype.kind not in "iuf":
+        _fail("hang_direction", f"has shape {hang.shape}, expected 3 numbers (a unit vector)")
+    if not np.isfinite(hang).all():
+        _fail("hang_direction", "holds NaN or infinite values; it must be a unit vector")
+    if abs(float(np.linalg.norm(hang.astype(np.float64))) - 1.0) > 1e-3:
+        _fail("hang_direction", f"has length {float(np.linalg.norm(hang)):.4g}; it must be a unit vector")
+
+
+# Virtual particles are collided BATCH_WIDTH at a time (NvCloth's CPU SIMD width).
+VIRTUAL_BATCH_WIDTH = 4
+
+
+def _check_virtual_batches(fabric: Fabric) -> None:
+    """At most VIRTUAL_BATCH_WIDTH per batch, and no movable particle twice in a batch."""
+    offsets = fabric.virtual_batch_offsets
+    sizes = np.diff(offsets)
+    if sizes.size and sizes.max() > VIRTUAL_BATCH_WIDTH:
+        batch = int(np.argmax(sizes))
+        _fail("virtual_batch_offsets", f"batch {batch} holds {int(sizes[batch])} virtual particles; at most {VIRTUAL_BATCH_WIDTH} per batch")
+    # A movable particle twice in one batch shows up as a repeated (batch, particle) key.
+    batch_of_row = np.repeat(np.arange(sizes.shape[0], dtype=np.int64), sizes)
+    particles = fabric.virtual_particles[: batch_of_row.shape[0], :3].astype(np.int64)
+    batches = np.repeat(batch_of_row, 3)
+    particles = particles.reshape(-1)
+    movable = fabric.particle_inv_mass[particles] > 0
+    keys = np.sort(batches[movable] * fabric.particle_count + particles[movable])
+    repeated = keys[1:][keys[1:] == keys[:-1]]
+    if repeated.size:
+        batch, particle = divmod(int(repeated[0]), fabric.particle_count)
+        _fail("virtual_batch_offsets", f"batch {batch} uses movable particle {particle} twice; batches must share no particle")
+
+
 def conflicting_set(fabric: Fabric) -> tuple[int, int] | None:
     """Return (set, particle) for the first set in which a movable particle appears twice."""
     movable = fabric.particle_inv_mass > 0
@@ -235,8 +275,9 @@ def _validate(fabric: Fabric) -> None:
     n = fabric.particle_count
     if n == 0:
         _fail("rest_pos", "fabric has no particles")
-    if np.any(fabric.particle_inv_mass < 0):
-        _fail("particle_inv_mass", "holds negative values")
+    _check_not_negative("particle_inv_mass", fabric.particle_inv_mass)
+    _check_not_negative("particle_area", fabric.particle_area, "areas")
+    _check_not_negative("particle_max_distance", fabric.particle_max_distance, "distances")
     _check_index_range("triangles", fabric.triangles, n)
     _check_index_range("face_vertex_indices", fabric.face_vertex_indices[:, None], n)
     if np.any(fabric.face_vertex_counts < 3):
@@ -258,8 +299,7 @@ def _validate(fabric: Fabric) -> None:
     for name in ("constraint_rest_length", "constraint_stiffness"):
         if getattr(fabric, name).shape[0] != c:
             _fail(name, f"length must equal the constraint count {c}")
-    if np.any(fabric.constraint_rest_length < 0):
-        _fail("constraint_rest_length", "holds negative lengths")
+    _check_not_negative("constraint_rest_length", fabric.constraint_rest_length, "lengths")
     if np.any((fabric.constraint_stiffness < 0) | (fabric.constraint_stiffness > 1)):
         _fail("constraint_stiffness", "values must lie in [0, 1]")
     if fabric.tether_anchor.shape[0] % n:
@@ -267,6 +307,7 @@ def _validate(fabric: Fabric) -> None:
     if fabric.tether_rest_length.shape[0] != fabric.tether_anchor.shape[0]:
         _fail("tether_rest_length", "length must equal tether_anchor's")
     _check_index_range("tether_anchor", fabric.tether_anchor[:, None], n)
+    _check_not_negative("tether_rest_length", fabric.tether_rest_length, "lengths")
     if fabric.tether_anchor.size:
         anchors = fabric.tether_anchor
         owners = np.arange(anchors.shape[0]) % n
@@ -278,10 +319,12 @@ def _validate(fabric: Fabric) -> None:
         "virtual_particles", fabric.virtual_particles[:, 3:], fabric.virtual_particle_weights.shape[0]
     )
     _check_csr("virtual_batch_offsets", fabric.virtual_batch_offsets, fabric.virtual_particles.shape[0])
+    _check_virtual_batches(fabric)
     if fabric.up_axis not in ("Y", "Z"):
         _fail("up_axis", f"is '{fabric.up_axis}', expected 'Y' or 'Z'")
-    if not (fabric.meters_per_unit > 0):
-        _fail("meters_per_unit", "must be positive")
+    if not (np.isfinite(fabric.meters_per_unit) and fabric.meters_per_unit > 0):
+        _fail("meters_per_unit", f"is {fabric.meters_per_unit}; it must be a positive finite number (1 for metres)")
+    _check_hang_direction(fabric.hang_direction)
     conflict = conflicting_set(fabric)
     if conflict is not None:
         _fail("set_offsets", f"set {conflict[0]} uses movable particle {conflict[1]} twice")

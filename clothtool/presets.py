@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+import stat
 import tomllib
 import types
 import typing
@@ -34,21 +35,65 @@ def available(kind: str) -> list[str]:
     return sorted(p.stem for p in folder.glob("*.toml")) if folder.is_dir() else []
 
 
-def read_toml(path: Path, error=PresetError) -> dict[str, Any]:
-    """Parse a TOML file; errors name the file, line and column."""
+# TOML inputs (presets, scenes) are hand-written settings: anything bigger is not one, and
+# reading /dev/zero or a multi-gigabyte file must not run the machine out of memory.
+MAX_TOML_BYTES = 16 << 20
+MAX_PRESET_BYTES = 1 << 20
+
+
+def read_toml(path: Path, error=PresetError, max_bytes: int = MAX_TOML_BYTES, quote: bool = True) -> dict[str, Any]:
+    """Parse a TOML file; errors name the file, line and column (and quote the line when
+    ``quote``: never for a file named by someone else, which may hold anything).
+
+    The file must be a regular file of at most ``max_bytes``: checked before reading.
+    """
     note_input(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        info = path.stat()
     except FileNotFoundError:
         raise error(f"{path}: file not found; check the path") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise error(f"{path}: cannot be read ({exc}); check the file") from None
+    except OSError as exc:
+        raise error(f"{path}: cannot be read ({exc.strerror or type(exc).__name__}); check the path") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise error(f"{path}: is not a regular file; give the path of a .toml file")
+    if info.st_size > max_bytes:
+        raise error(f"{path}: is {info.st_size:,} bytes, more than the {max_bytes:,} a settings file may have; check the path")
     try:
-        return tomllib.loads(text)
-    except RecursionError:
-        raise error(f"{path}: TOML nested too deeply (arrays or tables inside each other thousands of levels down); simplify the file") from None
+        with path.open("rb") as handle:
+            data = handle.read(max_bytes + 1)  # the file may grow between stat and read
+        if len(data) > max_bytes:
+            raise error(f"{path}: is more than the {max_bytes:,} bytes a settings file may have; check the path")
+        text = data.decode("utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = "not UTF-8 text" if isinstance(exc, UnicodeDecodeError) else (exc.strerror or type(exc).__name__)
+        raise error(f"{path}: cannot be read ({reason}); save it as UTF-8 TOML") from None
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise error(f"{path}: malformed TOML {_where(str(exc), text)}; fix the syntax there") from None
+        where = _where(str(exc), text) if quote else _where(str(exc), "")
+        raise error(f"{path}: malformed TOML {where}; fix the syntax there") from None
+    except RecursionError:
+        data = None
+    # Dotted headers ([a.a.a...]) parse to any depth without recursion, but copying or
+    # walking the result recurses: refuse it here, once, for everything downstream.
+    if data is None or _too_deep(data):
+        raise error(f"{path}: tables or arrays are nested more than {MAX_TOML_DEPTH} deep; settings files are shallow, check the file")
+    return data
+
+
+MAX_TOML_DEPTH = 32
+
+
+def _too_deep(data) -> bool:
+    """Whether ``data`` nests dicts/lists more than MAX_TOML_DEPTH deep (iterative walk)."""
+    stack = [(data, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_TOML_DEPTH:
+            return True
+        children = node.values() if isinstance(node, dict) else node if isinstance(node, list) else ()
+        stack.extend((child, depth + 1) for child in children if isinstance(child, (dict, list)))
+    return False
 
 
 def _where(message: str, text: str) -> str:
@@ -65,16 +110,21 @@ def _where(message: str, text: str) -> str:
     else:
         return f"({message})"
     reason = re.sub(r"\s*\(at [^)]*\)", "", message)
-    source = lines[number - 1].strip() if 0 < number <= len(lines) else ""
-    return f"at line {number}: {reason} in '{source}'"
+    if not 0 < number <= len(lines):  # no text to quote (or not to be quoted)
+        return f"at line {number}: {reason}"
+    return f"at line {number}: {reason} in '{lines[number - 1].strip()}'"
 
 
 def load_preset(kind: str, name: str) -> tuple[dict[str, Any], str]:
     """The mapping of preset ``name`` (bundled name or TOML path) and a label for messages."""
+    if not isinstance(name, str) or not name:
+        names = ", ".join(available(kind)) or "none"
+        raise PresetError(f"{kind} preset {name!r} is not a name; give a string: one of {names} or a .toml path")
     looks_like_path = name.endswith(".toml") or "/" in name or "\\" in name
     if looks_like_path:
+        # Someone else's file: small and regular, checked before reading; never quoted.
         path = Path(name)
-        return read_toml(path), str(path)
+        return read_toml(path, max_bytes=MAX_PRESET_BYTES, quote=False), str(path)
     path = preset_dir(kind) / f"{name}.toml"
     if not path.is_file():
         names = ", ".join(available(kind)) or "none"

@@ -9,14 +9,15 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool.cook.triplets import Schedule, TripletScheduler
+from clothtool.fabric import VIRTUAL_BATCH_WIDTH
 
 # Barycentric weight patterns per triangle, by count: the centroid, and/or points two thirds
 # of the way from the centroid towards each corner (which cover a triangle evenly).
 _CENTROID = [(1 / 3, 1 / 3, 1 / 3)]
 _CORNERS = [(2 / 3, 1 / 6, 1 / 6), (1 / 6, 2 / 3, 1 / 6), (1 / 6, 1 / 6, 2 / 3)]
 WEIGHT_PATTERNS = {1: _CENTROID, 3: _CORNERS, 4: _CENTROID + _CORNERS}
-# Width of a virtual-particle batch (NvCloth's SIMD width on CPU).
-BATCH_WIDTH = 4
+# Width of a virtual-particle batch (NvCloth's SIMD width on CPU); validate() checks it.
+BATCH_WIDTH = VIRTUAL_BATCH_WIDTH
 
 
 def build_virtual_particles(

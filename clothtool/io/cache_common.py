@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import abc
 import contextlib
+import dataclasses
 import json
 import os
 import re
@@ -16,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from clothtool.errors import ClothtoolError
+from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.cache import CacheHeader, ClothTopology, ColliderInfo, FrameData, partial_path
 
 FORMAT_NAME = "clothtool-cache"
@@ -269,6 +270,26 @@ class CacheReader:
 
     def close(self) -> None:  # pragma: no cover - overridden
         pass
+
+    def _check_loaded(self) -> None:
+        """Refuse a reconstructed header a writer would have refused (checked against the
+        requested frame range, so a partial file passes) and frames that are not consecutive
+        from the start frame; raises FormatError naming the file and the element."""
+        header, fix = self.header, "the file is damaged, bake it again"
+        for key in ("fps", "meters_per_unit"):
+            if not np.isfinite(getattr(header, key)):
+                raise FormatError(f"{self.path}: {key} is {getattr(header, key)}; it must be a positive finite number, {fix}")
+        try:
+            validate_header(dataclasses.replace(header, end_frame=self.requested_end_frame), self.path)
+        except ClothtoolError as exc:
+            raise FormatError(f"{self.path}: invalid cache ({str(exc).removeprefix(f'{self.path}: ')}); {fix}") from None
+        expected = list(range(header.start_frame, header.start_frame + len(self.frames)))
+        if self.frames != expected or len(self.frames) > self.requested_end_frame - header.start_frame + 1:
+            span = f"{self.frames[0]}..{self.frames[-1]}" if self.frames else "none"
+            raise FormatError(
+                f"{self.path}: frames {span} ({len(self.frames)}) are not consecutive from start frame "
+                f"{header.start_frame} to end frame {self.requested_end_frame}; {fix}"
+            )
 
     def _cloth_index(self, name: str) -> int:
         names = [c.name for c in self.header.cloths]

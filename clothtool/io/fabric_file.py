@@ -15,9 +15,10 @@ import numpy as np
 
 from clothtool import __version__
 from clothtool.errors import FormatError, UsageError
-from clothtool.fabric import ARRAY_FIELDS, FORMAT_NAME, FORMAT_VERSION, Fabric
-from clothtool.io.atomic import atomic_output
+from clothtool.fabric import ARRAY_FIELDS, ATTR_FIELDS, FORMAT_NAME, FORMAT_VERSION, Fabric
 from clothtool.inputs import note_input
+from clothtool.io.atomic import atomic_output
+from clothtool.io.h5safe import check_hdf5_file, read_dataset
 
 # Arrays at least this many bytes are chunked and compressed (shuffle + gzip).
 _COMPRESS_ABOVE_BYTES = 1 << 16
@@ -64,7 +65,8 @@ def _fail(path, message: str):
 
 
 def read_fabric(path: str | os.PathLike, validate: bool = True) -> Fabric:
-    """Read a fabric file; raise FormatError if it is not one, is truncated or is invalid."""
+    """Read a fabric file; raise FormatError if it is not one, is truncated, is invalid or
+    reaches outside itself (external storage or links, virtual datasets, soft-link cycles)."""
     import h5py
 
     path = Path(path)
@@ -74,26 +76,23 @@ def read_fabric(path: str | os.PathLike, validate: bool = True) -> Fabric:
     try:
         with h5py.File(path, "r") as f:
             if f.attrs.get("format") != FORMAT_NAME:
-                _fail(path, f"not a clothtool fabric (format attribute is {f.attrs.get('format')!r}); cook the mesh with 'clothtool cook'")
+                _fail(path, f"not a clothtool fabric (format attribute is {_shown(f.attrs.get('format'))}); cook the mesh with 'clothtool cook'")
             version = int(f.attrs.get("format_version", -1))
             if version != FORMAT_VERSION:
                 _fail(path, f"fabric format version {version} is not supported (this clothtool reads {FORMAT_VERSION}); re-cook it")
+            # Before any data is read: nothing may point outside the file or claim more
+            # bytes than the file holds.
+            check_hdf5_file(f, path, _FIX)
             arrays = {}
-            for name, dtype, _ in ARRAY_FIELDS:
-                if name not in f:
+            for name, dtype, shape in ARRAY_FIELDS:
+                if name not in f or not isinstance(f.get(name), h5py.Dataset):
                     _fail(path, f"dataset '{name}' is missing; the file is truncated or damaged, re-cook it")
-                arrays[name] = np.asarray(f[name][()], dtype=dtype)
-            fabric = Fabric(
-                **arrays,
-                meters_per_unit=float(f.attrs["meters_per_unit"]),
-                up_axis=str(f.attrs["up_axis"]),
-                hang_direction=np.asarray(f.attrs["hang_direction"], np.float32),
-                source_sha256=str(f.attrs["source_sha256"]),
-                cook_options=str(f.attrs["cook_options"]),
-            )
+                width = shape[-1] if isinstance(shape[-1], int) else None
+                arrays[name] = read_dataset(f[name], path, name, dtype, len(shape), _FIX, width)
+            fabric = Fabric(**arrays, **_read_attrs(f, path))
     except FormatError:
         raise
-    except (OSError, KeyError, ValueError, TypeError) as exc:
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
         first_line = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         _fail(path, f"cannot be read as a fabric ({first_line}); the file is truncated or damaged, re-cook it")
     if validate:
@@ -102,6 +101,36 @@ def read_fabric(path: str | os.PathLike, validate: bool = True) -> Fabric:
         except Exception as exc:  # FabricError: report it against the file
             _fail(path, f"invalid fabric: {exc}; re-cook it")
     return fabric
+
+
+_FIX = "re-cook it with 'clothtool cook'"
+
+
+def _shown(value) -> str:
+    """A foreign attribute value for a message: short, one line."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _read_attrs(f, path) -> dict:
+    """The root attributes as Fabric keyword arguments, type-checked (validate() checks values)."""
+    values = {}
+    for key in ATTR_FIELDS:
+        if key not in f.attrs:
+            _fail(path, f"root attribute '{key}' is missing; the file is truncated or damaged, re-cook it")
+        values[key] = f.attrs[key]
+    mpu = np.asarray(values["meters_per_unit"])
+    if mpu.shape != () or mpu.dtype.kind not in "iuf":
+        _fail(path, f"root attribute 'meters_per_unit' must be one number, got {_shown(values['meters_per_unit'])}; re-cook it")
+    hang = np.asarray(values["hang_direction"])
+    if hang.dtype.kind not in "iuf":
+        _fail(path, f"root attribute 'hang_direction' must be 3 numbers, got dtype {hang.dtype}; re-cook it")
+    for key in ("up_axis", "source_sha256", "cook_options"):
+        if not isinstance(values[key], str):
+            _fail(path, f"root attribute '{key}' must be a string, got {_shown(values[key])}; re-cook it")
+    values["meters_per_unit"] = float(mpu)
+    values["hang_direction"] = hang.astype(np.float32).reshape(-1)
+    return values
 
 
 def cook_options_of(fabric: Fabric) -> dict:

@@ -28,6 +28,7 @@ from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.atomic import check_output_path, temporary_sibling
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData
 from clothtool.io.cache_common import (
+    _NAME,
     CacheReader,
     FORMAT_NAME,
     FORMAT_VERSION,
@@ -38,6 +39,7 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
+from clothtool.io.h5safe import check_hdf5_file, check_layout, read_dataset
 
 HDF5_LIBVER = ("earliest", "v110")
 
@@ -239,7 +241,7 @@ class H5CacheReader(CacheReader):
         except FormatError:
             self.close()
             raise
-        except (OSError, KeyError, ValueError, TypeError) as exc:
+        except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
             self.close()
             _fail(path, f"cannot be read as a cache ({_first_line(exc)}); the file is truncated or damaged, bake it again")
 
@@ -253,66 +255,120 @@ class H5CacheReader(CacheReader):
         fmt = f.attrs.get("format")
         if fmt != FORMAT_NAME:
             hint = "it is a fabric; give the cache written by 'clothtool bake'" if fmt == "clothtool-fabric" else "bake one with 'clothtool bake'"
-            _fail(path, f"not a clothtool cache (format attribute is {fmt!r}); {hint}")
+            shown = repr(fmt) if len(repr(fmt)) <= 40 else repr(fmt)[:37] + "..."
+            _fail(path, f"not a clothtool cache (format attribute is {shown}); {hint}")
         version = int(f.attrs.get("format_version", -1))
         if version != FORMAT_VERSION:
             _fail(path, f"cache format version {version} is not supported (this clothtool reads {FORMAT_VERSION}); bake it again")
-        names = json.loads(f.attrs["cloths"])
+        # Before any data is read: nothing may point outside the file or claim more bytes
+        # than the file holds.
+        check_hdf5_file(f, path, _FIX)
+        names = _name_list(f, path, "cloths")
         for name in names:
             if f"cloth/{name}/P" not in f:
                 _fail(path, f"cloth '{name}' is missing; the file is truncated or damaged, bake it again")
+        start = _int_attr(f, path, "start_frame")
+        self.requested_end_frame = _int_attr(f, path, "end_frame")
+        if self.requested_end_frame < start:
+            _fail(path, f"root attribute 'end_frame' ({self.requested_end_frame}) is before 'start_frame' ({start}); {_FIX}")
         # A crash between writing a frame and updating frame_count leaves extra rows: ignore them.
-        count = int(f.attrs["frame_count"])
+        count = _int_attr(f, path, "frame_count")
+        if not 0 <= count <= self.requested_end_frame - start + 1:
+            _fail(path, f"root attribute 'frame_count' is {count}, outside 0..{self.requested_end_frame - start + 1} (start_frame to end_frame); {_FIX}")
         count = min([count] + [f[f"cloth/{name}/P"].shape[0] for name in names])
-        start = int(f.attrs["start_frame"])
         self.frames = list(range(start, start + count))
-        self.requested_end_frame = int(f.attrs["end_frame"])
-        present = set(json.loads(f.attrs["attributes"]))
+        fps = _float_attr(f, path, "fps")
+        meters_per_unit = _float_attr(f, path, "meters_per_unit")
+        present = set(_name_list(f, path, "attributes", names=False))
         self.header = CacheHeader(
-            fps=float(f.attrs["fps"]),
+            fps=fps,
             start_frame=start,
             end_frame=start + count - 1,
-            meters_per_unit=float(f.attrs["meters_per_unit"]),
+            meters_per_unit=meters_per_unit,
             up_axis=str(f.attrs["up_axis"]),
             cloths=tuple(self._cloth_topology(name, f[f"cloth/{name}"]) for name in names),
-            colliders=tuple(self._collider_info(name, f[f"collider/{name}"]) for name in json.loads(f.attrs["colliders"])),
+            colliders=tuple(self._collider_info(name, f[f"collider/{name}"]) for name in _name_list(f, path, "colliders")),
             attributes=frozenset(present),
-            stats_fields=tuple(json.loads(f.attrs["stats_fields"])),
+            stats_fields=tuple(_name_list(f, path, "stats_fields")),
             metadata={k[5:]: str(v) for k, v in sorted(f.attrs.items()) if k.startswith("meta:")},
         )
+        self._check_loaded()
+        for cloth in self.header.cloths:
+            self._check_series(cloth)
+
+    def _check_series(self, cloth: ClothTopology) -> None:
+        """Per-frame datasets match the cloth's point count and hold every frame (no data read)."""
+        g, n, count = self._file["cloth"][cloth.name], cloth.particle_count, len(self.frames)
+        series = [("P", np.float32, (n, 3)), ("extent", np.float32, (2, 3))]
+        series += [("v", np.float32, (n, 3))] if "v" in g else []
+        series += [(f"stats/{field}", np.float64, ()) for field in self.header.stats_fields if "stats" in g]
+        for key, dtype, shape in series:
+            where = f"cloth/{cloth.name}/{key}"
+            if key not in g:
+                _fail(self.path, f"dataset '{where}' is missing; {_FIX}")
+            check_layout(g[key], self.path, where, dtype, 1 + len(shape), _FIX)
+            if g[key].shape[1:] != shape or g[key].shape[0] < count:
+                _fail(self.path, f"dataset '{where}' has shape {g[key].shape}, expected ({count}, {', '.join(map(str, shape))}) for {n} points; {_FIX}".replace(", )", ")"))
 
     def _cloth_topology(self, name: str, g) -> ClothTopology:
-        n = g["P"].shape[1]
+        path = self.path
+        p = g["P"]
+        check_layout(p, path, f"cloth/{name}/P", np.float32, 3, _FIX, width=3)
+        n = p.shape[1]
         if "rest" in g:
-            rest = g["rest"][()]
+            rest = read_dataset(g["rest"], path, f"cloth/{name}/rest", np.float32, 2, _FIX, width=3)
         elif self.frames:
-            rest = g["P"][0]  # no rest pose written: the first frame stands in for it
+            rest = p[0]  # no rest pose written: the first frame stands in for it
         else:
             rest = np.zeros((n, 3), np.float32)
-        primvars = {key: g["primvars"][key][()] for key in g["primvars"]} if "primvars" in g else {}
+        if rest.shape[0] != n:
+            _fail(path, f"cloth '{name}' has {rest.shape[0]} rest points but {n} points per frame; {_FIX}")
+        primvars = {}
+        if "primvars" in g:
+            for key in g["primvars"]:
+                primvars[key] = read_dataset(g["primvars"][key], path, f"cloth/{name}/primvars/{key}", np.float32, 1, _FIX)
+
+        def topology(key, dtype, ndim, width=None):
+            return read_dataset(g[key], path, f"cloth/{name}/{key}", dtype, ndim, _FIX, width)
+
         return ClothTopology(
             name=name,
             rest_pos=np.asarray(rest, np.float32),
-            face_vertex_counts=g["face_vertex_counts"][()],
-            face_vertex_indices=g["face_vertex_indices"][()],
-            face_vertex_uv=g["face_vertex_uv"][()] if "face_vertex_uv" in g else None,
+            face_vertex_counts=topology("face_vertex_counts", np.int32, 1),
+            face_vertex_indices=topology("face_vertex_indices", np.int32, 1),
+            face_vertex_uv=topology("face_vertex_uv", np.float32, 2, 2) if "face_vertex_uv" in g else None,
             vertex_primvars=primvars,
         )
 
     def _collider_info(self, name: str, g) -> ColliderInfo:
+        path = self.path
         params = json.loads(g.attrs["params"])
+        if not isinstance(params, dict):
+            _fail(path, f"collider '{name}' attribute 'params' is not a JSON object; {_FIX}")
+        check_layout(g["xform"], path, f"collider/{name}/xform", np.float64, 3, _FIX)
+        if g["xform"].shape[1:] != (4, 4) or g["xform"].shape[0] < len(self.frames):
+            _fail(path, f"dataset 'collider/{name}/xform' has shape {g['xform'].shape}, expected ({len(self.frames)}, 4, 4); {_FIX}")
         for key in g:
             if key not in ("xform", "P", "face_vertex_counts", "face_vertex_indices", "rest_points"):
-                params[key] = g[key][()]
+                params[key] = read_dataset(g[key], path, f"collider/{name}/{key}", np.float64, 2, _FIX, width=4)
         mesh = str(g.attrs["kind"]) == "mesh"
-        return ColliderInfo(
+
+        def mesh_data(key, dtype, ndim, width=None):
+            return read_dataset(g[key], path, f"collider/{name}/{key}", dtype, ndim, _FIX, width) if mesh else None
+
+        info = ColliderInfo(
             name=name,
             kind=str(g.attrs["kind"]),
             params=params,
-            face_vertex_counts=g["face_vertex_counts"][()] if mesh else None,
-            face_vertex_indices=g["face_vertex_indices"][()] if mesh else None,
-            rest_points=g["rest_points"][()] if mesh else None,
+            face_vertex_counts=mesh_data("face_vertex_counts", np.int32, 1),
+            face_vertex_indices=mesh_data("face_vertex_indices", np.int32, 1),
+            rest_points=mesh_data("rest_points", np.float32, 2, 3),
         )
+        if mesh and "P" in g:
+            check_layout(g["P"], path, f"collider/{name}/P", np.float32, 3, _FIX)
+            if g["P"].shape[1:] != info.rest_points.shape or g["P"].shape[0] < len(self.frames):
+                _fail(path, f"dataset 'collider/{name}/P' has shape {g['P'].shape}, expected ({len(self.frames)}, {info.rest_points.shape[0]}, 3); {_FIX}")
+        return info
 
     def _cloth_group(self, name: str):
         self._cloth_index(name)
@@ -358,3 +414,37 @@ class H5CacheReader(CacheReader):
 def _first_line(exc: Exception) -> str:
     text = str(exc).strip()
     return text.splitlines()[0] if text else type(exc).__name__
+
+
+_FIX = "the file is damaged, bake it again"
+
+
+def _int_attr(f, path, key: str) -> int:
+    value = f.attrs[key]
+    if np.ndim(value) or np.asarray(value).dtype.kind not in "iu":
+        _fail(path, f"root attribute '{key}' must be an integer, got {np.asarray(value).dtype} {np.shape(value)}; {_FIX}")
+    return int(value)
+
+
+def _float_attr(f, path, key: str) -> float:
+    value = f.attrs[key]
+    if np.ndim(value) or np.asarray(value).dtype.kind not in "iuf" or not np.isfinite(value) or not value > 0:
+        _fail(path, f"root attribute '{key}' must be a positive finite number, got {value if np.ndim(value) == 0 else np.shape(value)}; {_FIX}")
+    return float(value)
+
+
+def _name_list(f, path, key: str, names: bool = True) -> list[str]:
+    """A JSON list of strings from a root attribute; ``names`` requires group-safe names (no
+    '/' or '..' that would reach elsewhere in the file)."""
+    value = f.attrs[key]
+    try:
+        items = json.loads(value)
+    except (TypeError, ValueError):
+        items = None
+    if not isinstance(items, list) or not all(isinstance(item, str) for item in items):
+        _fail(path, f"root attribute '{key}' must be a JSON list of strings; {_FIX}")
+    if names:
+        bad = [item for item in items if not _NAME.match(item)]
+        if bad:
+            _fail(path, f"root attribute '{key}' holds the invalid name {bad[0][:40]!r}; {_FIX}")
+    return items

@@ -441,6 +441,7 @@ class UsdCacheReader(CacheReader):
             stats_fields=tuple(info.get("statsFields", ())),
             metadata={str(k): str(v) for k, v in sorted(dict(info.get("metadata", {})).items())},
         )
+        self._check_loaded()
 
     def _default(self, spec, name: str, dtype):
         attr = spec.attributes.get(name) if spec is not None else None

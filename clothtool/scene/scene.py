@@ -178,7 +178,9 @@ def _scene_table(ctx: _Context, table: dict, frames: tuple[int, int] | None, def
         gravity = -up * STANDARD_GRAVITY / mpu
     if np.linalg.norm(gravity) * mpu > 1000.0:
         ctx.fail("scene", f"key 'gravity' is {np.linalg.norm(gravity) * mpu:.3g} m/s^2; it is in scene units/s^2 (check meters_per_unit)")
-    name = str(table.get("name", default_name))
+    name = table.get("name", default_name)
+    if not isinstance(name, str) or not name.strip():
+        ctx.fail("scene", f"key 'name' must be a non-empty string, got {name!r}; e.g. name = \"shot_010\"")
     return name, fps, int(start), int(end), mpu, up_axis, gravity
 
 
@@ -361,10 +363,11 @@ def load_scene(
     """Read and validate a scene file (see module docstring); ``strict`` makes mesh repairs
     of cloths cooked on the fly errors."""
     path = Path(path)
-    if not path.is_file():
+    if not path.exists():
         raise SceneError(f"{path}: scene file not found; check the path")
-    _refuse_other_file_kinds(path)
-    raw = read_toml(path, error=SceneError)
+    if path.is_file():  # a device or FIFO is refused unread by read_toml
+        _refuse_other_file_kinds(path)
+    raw = read_toml(path, error=SceneError)  # refuses devices, FIFOs and huge files unread
     check_override_keys(raw, list(overrides), override_schema())
     tables = apply_overrides(raw, list(overrides))
     ctx = _Context(path)

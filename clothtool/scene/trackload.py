@@ -13,9 +13,13 @@ of ``translate`` (k,3), ``rotate`` (k,4), ``scale`` (k,3), or ``matrix`` (k,4,4)
 from __future__ import annotations
 
 import csv
+import re
+import stat
+import zipfile
 from pathlib import Path
 
 import numpy as np
+from numpy.lib import format as np_format
 
 from clothtool.errors import SceneError
 from clothtool.inputs import note_input
@@ -83,26 +87,58 @@ def _keys_from_table(keys: list, where: str):
     return np.asarray(times), np.asarray(translations), np.asarray(rotations), np.asarray(scales)
 
 
-def _read_csv(path: Path, where: str):
+# Track files hold a few numbers per frame; anything bigger is not one.
+MAX_TRACK_BYTES = 256 << 20
+
+
+def _check_track_file(path: Path, where: str) -> None:
+    """A regular file of at most MAX_TRACK_BYTES: checked before reading a byte."""
     try:
-        with path.open(newline="") as handle:
-            rows = list(csv.reader(handle))
+        info = path.stat()
     except FileNotFoundError:
         raise SceneError(f"{where}: track file {path.name} not found; check the 'file' path") from None
+    except OSError as exc:
+        raise SceneError(f"{where}: track file {path.name} cannot be read ({exc.strerror}); check the 'file' path") from None
+    if not stat.S_ISREG(info.st_mode):
+        raise SceneError(f"{where}: track file {path.name} is not a regular file; give a .csv or .npz file")
+    if info.st_size > MAX_TRACK_BYTES:
+        raise SceneError(f"{where}: track file {path.name} is {info.st_size:,} bytes, more than {MAX_TRACK_BYTES:,}; check the 'file' path")
+
+
+def _read_csv(path: Path, where: str):
+    _check_track_file(path, where)
+    try:
+        with path.open(newline="", encoding="utf-8") as handle:
+            rows = list(csv.reader(handle))
+    except UnicodeDecodeError:
+        raise SceneError(f"{where}: {path.name} is not UTF-8 text (UTF-16 or binary?); save it as UTF-8 CSV") from None
+    except csv.Error as exc:
+        raise SceneError(f"{where}: {path.name} is not a readable CSV ({exc}); save it as plain UTF-8 CSV") from None
+    if any("\0" in value for row in rows for value in row):
+        raise SceneError(f"{where}: {path.name} holds NUL characters (binary data); save it as plain UTF-8 CSV")
     if not rows:
         raise SceneError(f"{where}: {path.name} is empty; expected columns {CSV_COLUMNS}")
     header = [h.strip().lower() for h in rows[0]]
     time_column = "frame" if "frame" in header else "time" if "time" in header else None
     if time_column is None or not {"tx", "ty", "tz"} <= set(header):
-        raise SceneError(f"{where}: {path.name} has columns {', '.join(header)}; expected {CSV_COLUMNS}")
+        raise SceneError(f"{where}: {path.name} has {_columns_shown(header)}; expected {CSV_COLUMNS}")
     allowed = {"frame", "time", "tx", "ty", "tz", "qw", "qx", "qy", "qz", "sx", "sy", "sz", "s"}
     unknown = [h for h in header if h not in allowed]
     if unknown:
-        raise SceneError(f"{where}: {path.name} has an unknown column '{unknown[0]}'; expected {CSV_COLUMNS}")
+        shown = f"'{unknown[0]}'" if _COLUMN_NAME.match(unknown[0]) else f"{header.index(unknown[0]) + 1}"
+        raise SceneError(f"{where}: {path.name} has an unknown column {shown}; expected {CSV_COLUMNS}")
+    data_rows = [row for row in rows[1:] if row]
+    ragged = next((i for i, row in enumerate(data_rows) if len(row) != len(header)), None)
+    if ragged is not None:
+        raise SceneError(f"{where}: {path.name} row {ragged + 2} has {len(data_rows[ragged])} values, the header {len(header)}; fix the file")
     try:
-        data = np.array([[float(v) for v in row] for row in rows[1:] if row], np.float64)
-    except ValueError as exc:
-        raise SceneError(f"{where}: {path.name} has a value that is not a number ({exc}); fix the file") from None
+        data = np.array([[float(v) for v in row] for row in data_rows], np.float64)
+    except ValueError:
+        # Name the place, not the text: the file may hold anything.
+        line, column = next(
+            (i + 2, j + 1) for i, row in enumerate(data_rows) for j, v in enumerate(row) if not _is_number(v)
+        )
+        raise SceneError(f"{where}: {path.name} row {line} column {column} is not a number; fix the file") from None
     if data.ndim != 2 or data.shape[0] == 0 or data.shape[1] != len(header):
         raise SceneError(f"{where}: {path.name} needs at least one row with {len(header)} values")
     column = {name: data[:, i] for i, name in enumerate(header)}
@@ -124,19 +160,68 @@ def _read_csv(path: Path, where: str):
     return time_column, column[time_column], translations, rotations, scales
 
 
-def _read_npz(path: Path, where: str):
+# Header cells quoted back in messages only when they look like column names (a file given
+# by mistake, /etc/passwd say, must not have its first line echoed).
+_COLUMN_NAME = re.compile(r"[a-z_][a-z0-9_]{0,31}\Z")
+
+
+def _columns_shown(header: list[str]) -> str:
+    if all(_COLUMN_NAME.match(h) for h in header):
+        return "columns " + ", ".join(header)
+    return "no header row of column names"
+
+
+def _is_number(text: str) -> bool:
     try:
-        data = np.load(path)
-    except FileNotFoundError:
-        raise SceneError(f"{where}: track file {path.name} not found; check the 'file' path") from None
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _check_npz(path: Path, where: str) -> None:
+    """Refuse members that are not plain number arrays (strings, pickled objects) or whose
+    header claims more bytes than the member holds, before numpy allocates anything."""
+    try:
+        archive = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError):
+        raise SceneError(f"{where}: {path.name} is not a readable .npz file (not a zip archive); save it with numpy.savez") from None
+    with archive:
+        for info in archive.infolist():
+            name = info.filename.removesuffix(".npy")
+            try:
+                with archive.open(info) as member:
+                    version = np_format.read_magic(member)
+                    read_header = {(1, 0): np_format.read_array_header_1_0, (2, 0): np_format.read_array_header_2_0}.get(version)
+                    if read_header is None:
+                        raise ValueError(f"npy version {version}")
+                    shape, _, dtype = read_header(member)
+            except (ValueError, OSError, zipfile.BadZipFile, EOFError) as exc:
+                raise SceneError(f"{where}: {path.name}: member '{name[:40]}' is not a numpy array ({type(exc).__name__}); save the file with numpy.savez") from None
+            if dtype.kind not in "iuf" or dtype.fields is not None:
+                raise SceneError(f"{where}: {path.name}: '{name[:40]}' holds {dtype} values; tracks need plain numbers (no strings or objects), save number arrays with numpy.savez")
+            declared = int(np.prod(shape, dtype=object)) * dtype.itemsize
+            if declared > info.file_size:
+                raise SceneError(f"{where}: {path.name}: '{name[:40]}' claims shape {shape} ({declared:,} bytes) but holds {info.file_size:,}; the file is damaged, save it again with numpy.savez")
+
+
+def _read_npz(path: Path, where: str):
+    _check_track_file(path, where)
+    _check_npz(path, where)
+    try:
+        data = np.load(path, allow_pickle=False)
     except (OSError, ValueError) as exc:
-        raise SceneError(f"{where}: {path.name} is not a readable .npz file ({exc})") from None
+        raise SceneError(f"{where}: {path.name} is not a readable .npz file ({type(exc).__name__}); save it with numpy.savez") from None
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise SceneError(f"{where}: {path.name} is a single .npy array, not an .npz archive; save it with numpy.savez")
     with data:
         names = set(data.files)
         time_column = "frame" if "frame" in names else "time" if "time" in names else None
         if time_column is None:
             raise SceneError(f"{where}: {path.name} has arrays {sorted(names)}; it needs 'frame' or 'time'")
         times = np.asarray(data[time_column], np.float64)
+        if times.ndim != 1:
+            raise SceneError(f"{where}: {path.name}: '{time_column}' has shape {times.shape}, expected (k,)")
         k = times.shape[0]
         if "matrix" in names:
             matrices = np.asarray(data["matrix"], np.float64)

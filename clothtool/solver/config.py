@@ -163,11 +163,14 @@ class SolverConfig:
             raise PresetError(f"{where}: cg_tolerance must be positive and cg_max_iterations at least 1")
 
 
+_EXAMPLE = {"material": "cotton", "solver": "production"}
+
+
 def _load_settings(kind: str, cls, name_or_table: str | dict, where: str):
     """Settings of ``cls`` from a preset of ``kind`` named by a string, or from a table with an
     optional ``preset`` key plus overrides; checked."""
     if not isinstance(name_or_table, (str, dict)):
-        raise PresetError(f"{where}: {name_or_table!r} is neither a {kind} preset name nor a table; give a name such as \"{ {'material': 'cotton', 'solver': 'production'}.get(kind, kind) }\" or a table of keys")
+        raise PresetError(f"{where}: expected a {kind} preset name or a table, got {name_or_table!r}; e.g. {kind} = \"{_EXAMPLE[kind]}\"")
     table = {"preset": name_or_table} if isinstance(name_or_table, str) else dict(name_or_table)
     settings = cls()
     preset = table.pop("preset", None)

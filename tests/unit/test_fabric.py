@@ -42,6 +42,9 @@ def corrupt(fabric, name, change):
         ("constraint_rest_length", lambda a: a.__setitem__(0, -0.1), "negative lengths"),
         ("phase_type", lambda a: a.__setitem__(0, 9), "unknown type 9"),
         ("virtual_particles", lambda a: a.__setitem__((0, 3), 7), "virtual_particles"),
+        ("tether_rest_length", lambda a: a.__setitem__(1, -0.2), r"tether_rest_length.*negative lengths \(entry 1 is -0.2\)"),
+        ("particle_max_distance", lambda a: a.__setitem__(4, -1.0), "particle_max_distance.*negative distances"),
+        ("particle_area", lambda a: a.__setitem__(0, -1e-3), "particle_area.*negative areas"),
     ],
 )
 def test_validate_names_the_broken_field(fabric, name, change, pattern):
@@ -87,3 +90,46 @@ def test_lumped_areas_sum_to_the_cloth_area_and_are_uniform_inside(quads):
     if quads:  # with triangles the lumping depends on the diagonal direction
         np.testing.assert_allclose(interior, h * h, rtol=1e-5)
     np.testing.assert_allclose(fabric.particle_inv_mass, 1.0 / fabric.particle_area, rtol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "hang, pattern",
+    [
+        (np.array([0, np.nan, 0], np.float32), "hang_direction.*NaN"),
+        (np.zeros(7, np.float32), r"hang_direction.*shape \(7,\)"),
+        (np.array([0, -2, 0], np.float32), "hang_direction.*length 2"),
+    ],
+)
+def test_validate_checks_the_hang_direction(fabric, hang, pattern):
+    with pytest.raises(FabricError, match=pattern):
+        fabric.replace(hang_direction=hang).validate()
+
+
+@pytest.mark.parametrize("mpu", [0.0, -1.0, np.inf, np.nan])
+def test_validate_checks_meters_per_unit(fabric, mpu):
+    with pytest.raises(FabricError, match="meters_per_unit.*positive finite"):
+        fabric.replace(meters_per_unit=mpu).validate()
+
+
+def test_validate_limits_virtual_batches_to_four(fabric):
+    v = fabric.virtual_particles.shape[0]
+    offsets = np.array([0, 5, *range(6, v + 1)], np.int32)  # the first batch holds 5
+    with pytest.raises(FabricError, match="batch 0 holds 5 virtual particles; at most 4"):
+        fabric.replace(virtual_batch_offsets=offsets).validate()
+
+
+def test_validate_refuses_a_virtual_batch_sharing_a_movable_particle(fabric):
+    movable = np.flatnonzero(fabric.particle_inv_mass > 0)
+    rows = fabric.virtual_particles.copy()
+    batch = slice(fabric.virtual_batch_offsets[1], fabric.virtual_batch_offsets[2])
+    assert batch.stop - batch.start >= 2
+    rows[batch.start, :3] = movable[:3]
+    rows[batch.start + 1, :3] = [movable[2], movable[3], movable[4]]
+    with pytest.raises(FabricError, match=f"batch 1 uses movable particle {movable[2]} twice"):
+        fabric.replace(virtual_particles=rows).validate()
+
+
+def test_cooked_virtual_batches_pass(fabric):
+    sizes = np.diff(fabric.virtual_batch_offsets)
+    assert sizes.size and sizes.max() <= 4
+    fabric.validate()

@@ -17,6 +17,7 @@ from clothtool.io.meshin._common import _gather_uv, _invalid, _meshio_polygons, 
 from clothtool.mesh.clothmesh import ClothMesh
 
 _PLY_UV_NAMES = (("s", "t"), ("u", "v"), ("texture_u", "texture_v"))
+_PLY_FLOAT_TYPES = ("float", "float32", "double", "float64")
 
 
 def read(source: str, prim: str | None) -> ClothMesh:
@@ -39,6 +40,15 @@ def read(source: str, prim: str | None) -> ClothMesh:
             f"{source}: PLY {extra[0]} is not supported (meshio reads vertex data and face vertex "
             "lists only); "
             "re-export without per-face UVs, colours or edges"
+        )
+    float_lists = [
+        (name, kind) for kind, name in elements.get("face", [])
+        if kind.startswith("list ") and kind.split()[-1] in _PLY_FLOAT_TYPES
+    ]
+    if float_lists:  # meshio would read them and the indices be silently truncated
+        raise FormatError(
+            f"{source}: PLY face property '{float_lists[0][0]}' is declared '{float_lists[0][1]}'; "
+            "vertex indices must be an integer type (int, uint, ...), re-export the mesh"
         )
     # meshio only knows the face list as `vertex_indices`; some exporters write `vertex_index`.
     renamed = re.sub(r"(property list \S+ \S+ )vertex_index\b", r"\1vertex_indices", header)

@@ -31,6 +31,12 @@ def read(source: str, prim: str | None) -> ClothMesh:
     up_axis = str(UsdGeom.GetStageUpAxis(stage))
     if up_axis not in ("Y", "Z"):
         raise MeshError(f"{source}: stage upAxis is {up_axis!r}; clothtool reads Y-up or Z-up stages, re-export with one of them")
+    meters_per_unit = float(UsdGeom.GetStageMetersPerUnit(stage))
+    if not (np.isfinite(meters_per_unit) and meters_per_unit > 0):  # 0 would be read as "unset"
+        raise MeshError(
+            f"{source}: stage metadata metersPerUnit = {meters_per_unit:g}; it must be a positive size "
+            "(0.01 for centimetres, 1 for metres), fix it in the export"
+        )
     found = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
     if prim is not None:
         absolute = prim.startswith("/") and Sdf.Path.IsValidPathString(prim)
@@ -108,7 +114,7 @@ def read(source: str, prim: str | None) -> ClothMesh:
         face_vertex_uv=face_uv,
         vertex_attrs=attrs,
         source=source,
-        meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
+        meters_per_unit=meters_per_unit,
         up_axis=up_axis,
         warnings=warnings,
     )
