@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import time
 
+JIT_STAGE = "jit warm-up"  # compiled once before the first frame; reported apart, never per frame
+
 
 class _Timer:
     __slots__ = ("profiler", "name", "start")
@@ -46,7 +48,7 @@ class StageProfiler:
         self.seconds[name] = self.seconds.get(name, 0.0) + seconds
         self.calls[name] = self.calls.get(name, 0) + 1
 
-    def table(self, frames: int, exclude: tuple[str, ...] = ("jit warm-up",)) -> list[dict]:
+    def table(self, frames: int, exclude: tuple[str, ...] = (JIT_STAGE,)) -> list[dict]:
         """Rows (stage, total_s, per_frame_ms, share, calls); share is of the simulation time,
         i.e. excluding JIT warm-up, which is reported apart."""
         total = sum(v for k, v in self.seconds.items() if k not in exclude) or 1.0
@@ -67,8 +69,8 @@ class StageProfiler:
 def format_profile(rows: list[dict]) -> str:
     lines = [f"{'stage':<14} {'total s':>9} {'ms/frame':>9} {'share':>7} {'calls':>8}"]
     for row in rows:
-        share = "-" if row["stage"] == "jit warm-up" else f"{100 * row['share']:.1f}%"
-        lines.append(
-            f"{row['stage']:<14} {row['total_s']:>9.3f} {row['per_frame_ms']:>9.3f} {share:>7} {row['calls']:>8}"
-        )
+        jit = row["stage"] == JIT_STAGE
+        share = "-" if jit else f"{100 * row['share']:.1f}%"
+        per_frame = "-" if jit else f"{row['per_frame_ms']:.3f}"
+        lines.append(f"{row['stage']:<14} {row['total_s']:>9.3f} {per_frame:>9} {share:>7} {row['calls']:>8}")
     return "\n".join(lines)

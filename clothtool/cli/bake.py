@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import contextlib
-import sys
 from pathlib import Path
 
 import click
 
-from clothtool.cli.common import emit_json, handle_errors, stderr_is_terminal, warn
+from clothtool.cli.common import emit_json, handle_errors, warn
+from clothtool.cli.progress import bake_progress
 
 
 def parse_frames(ctx, param, value):
@@ -21,27 +20,6 @@ def parse_frames(ctx, param, value):
     if end < start:
         raise click.BadParameter(f"'{value}' runs backwards; give START:END with END >= START")
     return start, end
-
-
-@contextlib.contextmanager
-def progress_bar(enabled: bool):
-    """A rich progress bar on stderr when it is a terminal; yields a progress callback."""
-    if not enabled:
-        yield None
-        return
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
-
-    with Progress(
-        "[progress.description]{task.description}", BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-        console=Console(file=sys.stderr), transient=True,
-    ) as progress:
-        task = progress.add_task("baking", total=None)
-
-        def update(done: int, total: int) -> None:
-            progress.update(task, completed=done, total=total)
-
-        yield update
 
 
 def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) -> None:
@@ -71,8 +49,8 @@ def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) ->
 @click.option("--compression", type=click.Choice(["gzip", "lzf", "none"]), help="HDF5 compression [scene's, else gzip].")
 @click.option("--save-every", type=click.IntRange(min=1), help="USD: save every N frames so memory stays flat [10].")
 @click.option("--strict", is_flag=True, help="Treat warnings (mesh repairs when cooking on the fly) as errors.")
-@click.option("--force", is_flag=True, help="Run the explicit integrator even beyond its stability limit.")
-@click.option("--progress/--no-progress", default=None, help="Progress bar on stderr [on when stderr is a terminal].")
+@click.option("--force", is_flag=True, help="Bake anyway: beyond the workload limits (iterations per frame, frames, disk space) and the explicit integrator's stability limit.")
+@click.option("--progress/--no-progress", default=None, help="Progress on stderr: a bar on a terminal, else a line every CLOTHTOOL_PROGRESS_INTERVAL s [10] (default: bar only on a terminal).")
 @handle_errors
 def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force, progress):
     """Bake SCENE (a scene .toml) into a cache.
@@ -117,9 +95,8 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
     for cloth in loaded.cloths:
         for line in cloth.cook_warnings:
             warn(line)
-    show_progress = stderr_is_terminal() if progress is None else progress
     failed = None
-    with progress_bar(show_progress) as update:
+    with bake_progress(progress, f"bake {scene.name}") as update:
         try:
             stats = run_bake(loaded, output, BakeOptions(percentiles=True, compression=compression, save_every=save_every, progress=update))
         except UnstableError as exc:

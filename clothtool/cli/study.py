@@ -6,8 +6,9 @@ from pathlib import Path
 
 import click
 
-from clothtool.cli.bake import parse_frames, progress_bar
+from clothtool.cli.bake import parse_frames
 from clothtool.cli.common import emit_json, handle_errors, stderr_is_terminal
+from clothtool.cli.progress import progress_bar
 
 
 @click.command()

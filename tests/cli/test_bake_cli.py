@@ -80,7 +80,7 @@ def test_report_json_html_profile_and_stdout_json(scene_dir, out_dir):
     assert str(Path.cwd()) not in report.read_text()  # no absolute paths
     assert run("bake", scene_dir / "scene.toml", "-o", "null", "--report", html).exit_code == 0
     text = html.read_text()
-    assert text.startswith("<!DOCTYPE html>") and text.count("<svg") == 3
+    assert text.startswith("<!DOCTYPE html>") and text.count("<svg") == 5  # strain, speed, kinetic energy, tether stretch, stage time
     out = run("bake", scene_dir / "scene.toml", "-o", "null", "--json")
     assert json.loads(out.stdout)["scene"] == "scene"
 

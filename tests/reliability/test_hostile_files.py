@@ -373,7 +373,7 @@ CLOTH_TABLE = '[cloth.c]\nfabric = "cloth.fabric.h5"\n'
     [
         (SCENE_HEAD + "[solver]\npreset = 5\n" + CLOTH_TABLE, "[solver] solver preset 5 is not a name"),
         ("solver = 5\n" + SCENE_HEAD + CLOTH_TABLE, "expected a solver preset name or a table, got 5"),
-        (SCENE_HEAD + CLOTH_TABLE + "material = 5\n", "[cloth.c] material:"),
+        (SCENE_HEAD + CLOTH_TABLE + "material = 5\n", "[cloth.c.material]: expected a material preset name"),
         (SCENE_HEAD + CLOTH_TABLE + "material = { preset = 5 }\n", "material preset 5 is not a name"),
         ('[scene]\nname = 5\n' + CLOTH_TABLE, "[scene] key 'name' must be a non-empty string, got 5"),
     ],
