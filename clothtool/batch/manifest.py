@@ -44,10 +44,23 @@ def entry(job: Job, inputs: dict[Path, str], result: JobResult, root: Path) -> d
         "resolved": result.resolved,
         "outputs": {relative(job.output, root): result.output_sha256} if result.output_sha256 else {},
         "status": result.status,
-        "error": result.error,
+        "error": relative_error(result.error, job, root),
         "stats": result.stats,
         "timing": {"wall_s": round(result.wall_s, 3), "cpu_s": round(result.cpu_s, 3)},
     }
+
+
+def relative_error(error: str | None, job: Job, root: Path) -> str | None:
+    """The error line with the job's file and directory paths made relative to ``root``
+    (library errors name files as given, and batch jobs carry absolute paths)."""
+    if error is None:
+        return None
+    paths = {Path(job.input), Path(job.output), Path(job.input).parent, Path(job.output).parent}
+    paths |= {p.resolve() for p in paths}
+    for path in sorted(paths, key=lambda p: len(str(p)), reverse=True):
+        if path.is_absolute() and len(path.parts) > 1:
+            error = error.replace(str(path), relative(path, root))
+    return error
 
 
 def summary(entries: list[dict]) -> dict:
