@@ -1,7 +1,7 @@
 """Error types raised by the library.
 
 Every message is one line that names the file, the element (vertex/face index, TOML key,
-collider name) and how to fix it; the command line prints it and exits with code 1.
+collider name) and how to fix it; the command line prints it and exits with code 1 (2 for a UsageError).
 """
 
 
@@ -31,6 +31,15 @@ class PresetError(ClothtoolError):
 
 class UnstableError(ClothtoolError):
     """A bake that produced NaN/Inf or speeds beyond the limit."""
+
+
+class UsageError(ClothtoolError):
+    """A command asked for something it cannot do (an output format it cannot write, an
+    output onto one of its inputs); the command line exits with code 2."""
+
+
+class OutputClashError(UsageError):
+    """An output path that names one of the command's input files."""
 
 
 class ClothtoolWarning(UserWarning):

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from clothtool.errors import PresetError
+from clothtool.inputs import note_input
 from clothtool.resources import data_dir
 
 KINDS = ("cook", "material", "solver")
@@ -35,6 +36,7 @@ def available(kind: str) -> list[str]:
 
 def read_toml(path: Path, error=PresetError) -> dict[str, Any]:
     """Parse a TOML file; errors name the file, line and column."""
+    note_input(path)
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:

@@ -11,7 +11,7 @@ import json
 import os
 from pathlib import Path
 
-from clothtool.errors import ClothtoolError
+from clothtool.errors import ClothtoolError, UsageError
 from clothtool.io.atomic import atomic_output
 from clothtool.profile import format_profile
 
@@ -50,7 +50,7 @@ def format_profile_table(report: dict) -> str:
 
 def _check_path(path: Path) -> None:
     if path.suffix.lower() not in REPORT_SUFFIXES:
-        raise ClothtoolError(f"{path}: report format '{path.suffix}' is not supported; use .json or .html")
+        raise UsageError(f"{path}: report format '{path.suffix}' is not supported; use .json or .html")
 
 
 def check_report_path(path: str | os.PathLike) -> Path:

@@ -6,12 +6,13 @@ import click
 
 from clothtool import __version__
 from clothtool.cli.bake import bake
+from clothtool.cli.common import OneLineErrorGroup
 from clothtool.cli.cook import cook
 from clothtool.cli.inspect import inspect
 from clothtool.cli.study import study
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(cls=OneLineErrorGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="clothtool")
 def main() -> None:
     """Cook garment meshes into fabrics and bake fabrics into HDF5/USD caches."""

@@ -42,6 +42,19 @@ def progress_bar(enabled: bool):
         yield update
 
 
+def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) -> None:
+    """The cache (and its partial name, kept if the bake fails) and the report must not be
+    any file the scene read."""
+    from clothtool.inputs import refuse_output_onto_input
+    from clothtool.io.cache import NULL_OUTPUTS, partial_path
+
+    if output not in NULL_OUTPUTS:
+        refuse_output_onto_input(output, inputs, "cache")
+        refuse_output_onto_input(partial_path(output), inputs, "partial cache a failed bake keeps")
+    if report_path is not None:
+        refuse_output_onto_input(report_path, inputs, "report")
+
+
 @click.command()
 @click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames.")
@@ -74,9 +87,8 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
     from clothtool.bake import BakeOptions
     from clothtool.bake import bake as run_bake
     from clothtool.errors import UnstableError
-    from clothtool.io.atomic import check_output_path
-    from clothtool.io.cache import NULL_OUTPUTS, supported_suffixes
-    from clothtool.errors import FormatError
+    from clothtool.inputs import recording_inputs
+    from clothtool.io.cache import check_cache_output_name
     from clothtool.report import check_report_path, format_profile_table, format_summary, write_report
     from clothtool.scene.scene import load_scene
 
@@ -89,15 +101,12 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
         return
     if output is None:
         raise click.UsageError("Missing option '-o' / '--output' (or give --dry-run).")
-    if output not in NULL_OUTPUTS:
-        if Path(output).suffix.lower() not in supported_suffixes():
-            raise FormatError(
-                f"{output}: unknown cache format '{Path(output).suffix}'; use one of {', '.join(supported_suffixes())} or 'null'"
-            )
-        check_output_path(output)
+    check_cache_output_name(output)
     if report_path is not None:
         check_report_path(report_path)
-    loaded = load_scene(scene, list(overrides), frames, strict=strict)
+    with recording_inputs() as inputs:
+        loaded = load_scene(scene, list(overrides), frames, strict=strict)
+    refuse_outputs_onto_inputs(output, report_path, inputs)
     for cloth in loaded.cloths:
         for line in cloth.cook_warnings:
             warn(line)

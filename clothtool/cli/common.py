@@ -13,18 +13,63 @@ import sys
 
 import click
 
-from clothtool.errors import ClothtoolError
+from clothtool.errors import ClothtoolError, UsageError
+
+
+def one_line(text: str) -> str:
+    """``text`` as one printable line: control characters from the input (a raw CR, a newline,
+    escape sequences, undecodable bytes) are shown escaped instead of splitting or garbling it."""
+    out = []
+    for char in str(text):
+        code = ord(char)
+        if char == "\n":
+            out.append("\\n")
+        elif char == "\r":
+            out.append("\\r")
+        elif char == "\t":
+            out.append("\\t")
+        elif code < 0x20 or code == 0x7F or 0x80 <= code < 0xA0:
+            out.append(f"\\x{code:02x}")
+        elif 0xDC80 <= code <= 0xDCFF:  # an undecodable byte kept by the surrogateescape handler
+            out.append(f"\\x{code - 0xDC00:02x}")
+        else:
+            out.append(char)
+    return "".join(out)
+
+
+class CommandError(click.ClickException):
+    """One ``Error: ...`` line on stderr; exit code 1, or 2 for a usage error."""
+
+    def __init__(self, message: str, exit_code: int = 1):
+        super().__init__(one_line(message))
+        self.exit_code = exit_code
+
+
+class OneLineErrorGroup(click.Group):
+    """A command group whose usage errors (bad option values, unknown options, missing
+    arguments) are one ``Error:`` line and exit code 2, like every other error, instead of
+    click's usage block: farm logs and CI parsers read one line."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except click.UsageError as exc:
+            where = exc.ctx.command_path if exc.ctx is not None else ctx.command_path
+            raise CommandError(f"{exc.format_message()} (see '{where} --help')", exit_code=2) from None
 
 
 def handle_errors(func):
-    """Turn ClothtoolError (and unexpected failures) into one line and exit code 1."""
+    """Turn ClothtoolError (and unexpected failures) into one line and exit code 1 (2 for a
+    UsageError)."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
+        except UsageError as exc:
+            raise CommandError(str(exc), exit_code=2) from None
         except ClothtoolError as exc:
-            raise click.ClickException(str(exc)) from None
+            raise CommandError(str(exc)) from None
         except KeyboardInterrupt:
             raise click.Abort() from None
         except click.exceptions.ClickException:
@@ -35,7 +80,7 @@ def handle_errors(func):
             if os.environ.get("CLOTHTOOL_DEBUG"):
                 raise
             first = str(exc).splitlines()[0] if str(exc) else ""
-            raise click.ClickException(
+            raise CommandError(
                 f"internal error ({type(exc).__name__}: {first}); rerun with CLOTHTOOL_DEBUG=1 and report the traceback"
             ) from None
 

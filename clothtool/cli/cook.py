@@ -45,23 +45,27 @@ def cook(mesh: Path, output: Path, preset, prim, strict, as_json, **overrides) -
       clothtool cook examples/skirt/skirt.obj --preset garment -o skirt.fabric.h5
     """
     from clothtool.cook.cooker import CookOptions, cook_fabric
+    from clothtool.inputs import recording_inputs, refuse_output_onto_input
     from clothtool.io.atomic import check_output_path
-    from clothtool.io.fabric_file import write_fabric
+    from clothtool.io.fabric_file import check_fabric_output_name, write_fabric
     from clothtool.io.meshin import read_mesh
     from clothtool.presets import apply_mapping, load_preset
     from clothtool.summary import fabric_summary, format_fabric_summary
 
+    check_fabric_output_name(output)
     check_output_path(output)
-    options = CookOptions()
-    if preset:
-        mapping, label = load_preset("cook", preset)
-        options = apply_mapping(options, mapping, label, skip=("strict",))
-    given = {k: (str(v) if isinstance(v, Path) else v) for k, v in overrides.items() if v is not None}
-    options = dataclasses.replace(options, **given, strict=strict)
+    with recording_inputs() as inputs:
+        options = CookOptions()
+        if preset:
+            mapping, label = load_preset("cook", preset)
+            options = apply_mapping(options, mapping, label, skip=("strict",))
+        given = {k: (str(v) if isinstance(v, Path) else v) for k, v in overrides.items() if v is not None}
+        options = dataclasses.replace(options, **given, strict=strict)
 
-    cloth_mesh = read_mesh(mesh, prim=prim)
-    digest = hashlib.sha256(mesh.read_bytes()).hexdigest()
-    result = cook_fabric(cloth_mesh, options, source_sha256=digest)
+        cloth_mesh = read_mesh(mesh, prim=prim)
+        digest = hashlib.sha256(mesh.read_bytes()).hexdigest()
+        result = cook_fabric(cloth_mesh, options, source_sha256=digest)
+    refuse_output_onto_input(output, inputs)
     for line in result.warnings:
         warn(line)
     write_fabric(result.fabric, output)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from clothtool.errors import MeshError
+from clothtool.inputs import note_input
 from clothtool.mesh.clothmesh import ClothMesh
 
 
@@ -50,6 +51,7 @@ def pin_mask_from_box(pos: np.ndarray, box: tuple[float, ...]) -> np.ndarray:
 def read_index_file(path: str | Path) -> np.ndarray:
     """Vertex indices from a text file: integers separated by whitespace or commas, '#' comments."""
     path = Path(path)
+    note_input(path)
     if not path.is_file():
         raise MeshError(f"{path}: pin index file not found; check the path given to --pin-file")
     numbers = []

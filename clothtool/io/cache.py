@@ -23,7 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
-from clothtool.errors import FormatError
+from clothtool.errors import FormatError, UsageError
 
 
 @dataclasses.dataclass(frozen=True)
@@ -185,6 +185,22 @@ def _entry(path: str | os.PathLike):
             f"{path}: unknown cache format '{suffix}'; use one of {', '.join(_WRITERS)} (or 'null' to discard frames)"
         )
     return _WRITERS[suffix]
+
+
+def check_cache_output_name(path: str | os.PathLike) -> None:
+    """Refuse (as a usage error) an output this bake cannot write: an unknown suffix, a
+    missing directory, a directory."""
+    from clothtool.io.atomic import check_output_path
+
+    if str(path) in NULL_OUTPUTS:
+        return
+    suffix = Path(path).suffix.lower()
+    if suffix not in _WRITERS:
+        raise UsageError(
+            f"{path}: a cache cannot be written as '{suffix or '(no suffix)'}'; "
+            f"use one of {', '.join(_WRITERS)} (or 'null' to discard frames)"
+        )
+    check_output_path(path)
 
 
 def open_cache_writer(path: str | os.PathLike, options: CacheOptions = CacheOptions()) -> CacheWriter:

@@ -14,13 +14,25 @@ from pathlib import Path
 import numpy as np
 
 from clothtool import __version__
-from clothtool.errors import FormatError
+from clothtool.errors import FormatError, UsageError
 from clothtool.fabric import ARRAY_FIELDS, FORMAT_NAME, FORMAT_VERSION, Fabric
 from clothtool.io.atomic import atomic_output
+from clothtool.inputs import note_input
 
 # Arrays at least this many bytes are chunked and compressed (shuffle + gzip).
 _COMPRESS_ABOVE_BYTES = 1 << 16
 HDF5_LIBVER = ("earliest", "v110")
+# A fabric is an HDF5 file; ".fabric.h5" is the documented name.
+SUFFIXES = (".h5", ".hdf5")
+
+
+def check_fabric_output_name(path: str | os.PathLike) -> None:
+    """Refuse (as a usage error) an output name whose suffix promises another format."""
+    if Path(path).suffix.lower() not in SUFFIXES:
+        raise UsageError(
+            f"{path}: a fabric is an HDF5 file and cannot be written as '{Path(path).suffix or '(no suffix)'}'; "
+            "name the output NAME.fabric.h5"
+        )
 
 
 def write_fabric(fabric: Fabric, path: str | os.PathLike) -> None:
@@ -56,6 +68,7 @@ def read_fabric(path: str | os.PathLike, validate: bool = True) -> Fabric:
     import h5py
 
     path = Path(path)
+    note_input(path)
     if not path.is_file():
         _fail(path, "fabric file not found; check the path or cook it with 'clothtool cook'")
     try:

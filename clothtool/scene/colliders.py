@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from clothtool.errors import ClothtoolError, SceneError
+from clothtool.inputs import note_input
 from clothtool.io.cache import ColliderInfo
 from clothtool.scene.tracks import Track
 from clothtool.solver.colliders import ColliderArrays
@@ -268,6 +269,7 @@ def _mesh(ctx, table: dict, where: str):
     frames = points = None
     if "deform" in table:
         deform = ctx.base / str(table["deform"])
+        note_input(deform)
         try:
             with np.load(deform) as data:
                 frames = np.asarray(data["frame"], np.float64)

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from clothtool.errors import SceneError
+from clothtool.inputs import note_input
 from clothtool.scene.tracks import INTERPOLATIONS, Track, decompose_matrix, euler_xyz_to_quat
 
 TRACK_KEYS = ("interpolation", "time_unit", "keys", "file", "teleport")
@@ -177,6 +178,7 @@ def load_track(name: str, table: dict, fps: float, base_dir: Path) -> Track:
         times, translations, rotations, scales = _keys_from_table(table["keys"], where)
     else:
         path = base_dir / str(table["file"])
+        note_input(path)
         suffix = path.suffix.lower()
         if suffix == ".csv":
             column, times, translations, rotations, scales = _read_csv(path, where)

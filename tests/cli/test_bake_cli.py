@@ -172,7 +172,7 @@ def test_malformed_toml_names_the_line(scene_dir, out_dir):
 def test_output_problems(scene_dir, tmp_path):
     scene = scene_dir / "scene.toml"
     assert "does not exist" in run("bake", scene, "-o", tmp_path / "nope" / "x.usdc").output
-    assert "unknown cache format '.abc'" in run("bake", scene, "-o", tmp_path / "x.abc").output
+    assert "cannot be written as '.abc'" in run("bake", scene, "-o", tmp_path / "x.abc").output
     assert "use .json or .html" in run("bake", scene, "-o", "null", "--report", tmp_path / "r.txt").output
     assert run("bake", scene).exit_code == 2  # no -o and no --dry-run
     assert run("bake", scene, "-o", "null", "--frames", "1-3").exit_code == 2

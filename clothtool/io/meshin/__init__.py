@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 
 from clothtool.errors import ClothtoolError, FormatError, MeshError
+from clothtool.inputs import note_input
 from clothtool.io.meshin import gltf, obj, off, ply, stl, usd
 from clothtool.io.meshin._common import _first_line, _invalid
 from clothtool.mesh.clothmesh import ClothMesh
@@ -33,6 +34,7 @@ def read_mesh(path: str | os.PathLike, prim: str | None = None) -> ClothMesh:
     """
     source = str(path)
     suffix = os.path.splitext(source)[1].lower()
+    note_input(source)
     if not os.path.exists(source):
         raise MeshError(f"{source}: file not found; check the path")
     reader = _READERS.get(suffix)

@@ -23,7 +23,11 @@ def _invalid(source: str, reason: str) -> FormatError:
 
 def _first_line(exc: BaseException) -> str:
     """The first meaningful line of a library exception, without pxr's C++ location prefix."""
-    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    try:
+        text = str(exc)
+    except UnicodeDecodeError:  # pxr's error quotes the file's undecodable bytes and fails to decode them
+        return "it holds bytes that are not UTF-8 text"
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
     if not lines:
         return type(exc).__name__
     line = lines[0]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool.errors import MeshError
+from clothtool.inputs import note_input
 from clothtool.io.meshin._common import _gather_uv, _invalid, _reverse_winding
 from clothtool.mesh.clothmesh import ClothMesh
 
@@ -18,6 +19,12 @@ def read(source: str, prim: str | None) -> ClothMesh:
     stage = Usd.Stage.Open(source)
     if stage is None:
         raise _invalid(source, "USD could not open the stage")
+    for layer in stage.GetUsedLayers():  # sublayers and references are inputs too
+        if layer.realPath:
+            note_input(layer.realPath)
+    up_axis = str(UsdGeom.GetStageUpAxis(stage))
+    if up_axis not in ("Y", "Z"):
+        raise MeshError(f"{source}: stage upAxis is {up_axis!r}; clothtool reads Y-up or Z-up stages, re-export with one of them")
     found = [p for p in stage.Traverse() if p.IsA(UsdGeom.Mesh)]
     if prim is not None:
         absolute = prim.startswith("/") and Sdf.Path.IsValidPathString(prim)
@@ -37,6 +44,12 @@ def read(source: str, prim: str | None) -> ClothMesh:
     indices = np.asarray(_usd_first_value(mesh.GetFaceVertexIndicesAttr()) or [], np.int64)
     if points is None and counts.size:
         raise _invalid(source, f"mesh prim {chosen.GetPath()} has faces but no points")
+    if int(counts.sum()) != indices.size or (counts.size and counts.min() < 1):
+        raise _invalid(
+            source,
+            f"mesh prim {chosen.GetPath()}: faceVertexCounts add up to {int(counts.sum())} corners but "
+            f"faceVertexIndices has {indices.size}",
+        )
     points = np.asarray(points if points is not None else np.zeros((0, 3)), np.float64).reshape(-1, 3)
     # EarliestTime: the value of a static transform, the first sample of an animated one (at
     # Default a transform with samples only reads as identity).
@@ -89,7 +102,7 @@ def read(source: str, prim: str | None) -> ClothMesh:
         vertex_attrs=attrs,
         source=source,
         meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
-        up_axis=str(UsdGeom.GetStageUpAxis(stage)),
+        up_axis=up_axis,
     )
 
 
