@@ -69,24 +69,28 @@ def run_job(job: Job) -> JobResult:
 
 def _cook(job: Job) -> tuple[dict, dict]:
     from clothtool.cook.cooker import CookOptions, cook_fabric
+    from clothtool.inputs import recording_inputs, refuse_output_onto_input
     from clothtool.io.atomic import check_output_path
-    from clothtool.io.fabric_file import write_fabric
+    from clothtool.io.fabric_file import check_fabric_output_name, write_fabric
     from clothtool.io.meshin import read_mesh
     from clothtool.presets import apply_mapping, load_preset
     from clothtool.summary import fabric_summary
 
+    check_fabric_output_name(job.output)
     check_output_path(job.output)
-    options = CookOptions()
-    if job.preset:
-        mapping, label = load_preset("cook", job.preset)
-        options = apply_mapping(options, mapping, label, skip=("strict",))
-    given = dict(job.cook_options)
-    prim = given.pop("prim", None)
-    options = apply_mapping(options, given, f"{job.input}: cook options", skip=("strict",))
-    options = dataclasses.replace(options, strict=job.strict)
-    path = Path(job.input)
-    mesh = read_mesh(path, prim=prim)
-    result = cook_fabric(mesh, options, source_sha256=file_sha256(path))
+    with recording_inputs() as inputs:
+        options = CookOptions()
+        if job.preset:
+            mapping, label = load_preset("cook", job.preset)
+            options = apply_mapping(options, mapping, label, skip=("strict",))
+        given = dict(job.cook_options)
+        prim = given.pop("prim", None)
+        options = apply_mapping(options, given, f"{job.input}: cook options", skip=("strict",))
+        options = dataclasses.replace(options, strict=job.strict)
+        path = Path(job.input)
+        mesh = read_mesh(path, prim=prim)
+        result = cook_fabric(mesh, options, source_sha256=file_sha256(path))
+    refuse_output_onto_input(job.output, inputs)
     write_fabric(result.fabric, job.output)
     summary = fabric_summary(result.fabric)
     stats = {
@@ -108,16 +112,18 @@ def wedge_metadata(job: Job) -> tuple[tuple[str, str], ...]:
 
 def _bake(job: Job, stats: dict) -> tuple[dict, dict]:
     from clothtool.bake import BakeOptions, bake
-    from clothtool.errors import FormatError, UnstableError
-    from clothtool.io.atomic import check_output_path
-    from clothtool.io.cache import supported_suffixes
+    from clothtool.errors import UnstableError
+    from clothtool.inputs import recording_inputs, refuse_output_onto_input
+    from clothtool.io.cache import NULL_OUTPUTS, check_cache_output_name, partial_path
     from clothtool.scene.scene import load_scene
 
-    suffix = Path(job.output).suffix.lower()
-    if suffix not in supported_suffixes():
-        raise FormatError(f"{job.output}: unknown cache format '{suffix}'; use one of {', '.join(supported_suffixes())}")
-    check_output_path(job.output)
-    scene = load_scene(job.input, list(job.overrides) + job.wedge_overrides, job.frames, strict=job.strict)
+    if job.output in NULL_OUTPUTS:  # a batch is for files that resume can check
+        raise ClothtoolError(f"{job.output}: a batch bake writes a cache file; name it .usdc, .usda, .usd or .h5")
+    check_cache_output_name(job.output)
+    with recording_inputs() as inputs:
+        scene = load_scene(job.input, list(job.overrides) + job.wedge_overrides, job.frames, strict=job.strict)
+    refuse_output_onto_input(job.output, inputs, "cache")
+    refuse_output_onto_input(partial_path(job.output), inputs, "partial cache a failed bake keeps")
     try:
         report = bake(scene, job.output, BakeOptions(metadata=wedge_metadata(job))).to_dict()
     except UnstableError as exc:
