@@ -8,6 +8,7 @@ from pathlib import Path
 
 import click
 
+from clothtool.cli.batch import batch_options, is_batch, run_bake_batch, wedge_options
 from clothtool.cli.common import emit_json, handle_errors, stderr_is_terminal, warn
 
 
@@ -56,8 +57,9 @@ def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) ->
 
 
 @click.command()
-@click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames.")
+@click.argument("scenes", metavar="SCENE...", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames; "
+              "for several scenes or wedges a template such as 'caches/{scene}/{wedge}.usdc'.")
 @click.option("--dry-run", is_flag=True, help="Print the stage plan and an estimated cost; bake nothing.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a scene or preset key, e.g. --set solver.frequency=600 (repeatable).")
@@ -71,9 +73,14 @@ def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) ->
 @click.option("--strict", is_flag=True, help="Treat warnings (mesh repairs when cooking on the fly) as errors.")
 @click.option("--force", is_flag=True, help="Run the explicit integrator even beyond its stability limit.")
 @click.option("--progress/--no-progress", default=None, help="Progress bar on stderr [on when stderr is a terminal].")
+@wedge_options
+@batch_options
 @handle_errors
-def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force, progress):
+def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force,
+         progress, wedges, wedge_zips, jobs_n, scheduler, manifest, resume):
     """Bake SCENE (a scene .toml) into a cache.
+
+    Several scenes or globs, --wedge, or an output template bake as a batch (see --jobs).
 
     Exit code 1 on bad input or an unstable bake (the frames written so far are kept in
     NAME.partial.SUFFIX).
@@ -83,7 +90,14 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
       clothtool bake examples/skirt/scene.toml -o out/skirt.usdc --report out/skirt.json
       clothtool bake examples/skirt/scene.toml -o out/skirt.h5 --set solver.frequency=600 --frames 1:24 --profile
       clothtool bake examples/skirt/scene.toml --dry-run
+      clothtool bake 'shots/*.toml' -o 'caches/{scene}/{wedge}.usdc' --wedge solver.frequency=300,600 --jobs 2
     """
+    if is_batch(scenes, output, jobs_n=jobs_n, scheduler=scheduler, manifest=manifest, wedges=wedges, wedge_zips=wedge_zips):
+        run_bake_batch(scenes, output, list(overrides) + (["solver.force=true"] if force else []), frames, strict, wedges,
+                       wedge_zips, as_json, jobs_n, scheduler, manifest, resume, progress, dry_run=dry_run,
+                       report_path=report_path, profile=profile, compression=compression, save_every=save_every)
+        return
+    scene = scenes[0]
     from clothtool.bake import BakeOptions
     from clothtool.bake import bake as run_bake
     from clothtool.errors import UnstableError
