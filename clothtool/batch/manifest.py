@@ -92,6 +92,14 @@ def read_manifest(path: Path) -> dict[str, dict]:
     path = Path(path)
     if not path.exists():
         return {}
+    return {e["id"]: e for e in load_manifest_document(path)["jobs"] if isinstance(e, dict) and "id" in e}
+
+
+def load_manifest_document(path: Path) -> dict:
+    """The whole manifest, checked to be one."""
+    path = Path(path)
+    if not path.is_file():
+        raise ClothtoolError(f"{path}: manifest not found; check the path")
     try:
         document = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -100,7 +108,7 @@ def read_manifest(path: Path) -> dict[str, dict]:
         raise ClothtoolError(f"{path}: not a clothtool batch manifest; give another --manifest path or delete the file")
     if document.get("version") != VERSION:
         raise ClothtoolError(f"{path}: manifest version {document.get('version')!r} is not {VERSION}; delete it to start afresh")
-    return {e["id"]: e for e in document["jobs"] if isinstance(e, dict) and "id" in e}
+    return document
 
 
 def up_to_date(job: Job, inputs: dict[Path, str], previous: dict | None, root: Path) -> bool:

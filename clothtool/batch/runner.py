@@ -77,13 +77,17 @@ def bake_many(
                 record(job, old, True)
             else:
                 todo.append((job, inputs))
-        for job, _ in todo:
-            Path(job.output).parent.mkdir(parents=True, exist_ok=True)
+        created = [p for p in {Path(job.output).parent for job, _ in todo} if not p.exists()]
+        for folder in created:
+            folder.mkdir(parents=True, exist_ok=True)
         results = _run(todo, executor)
         for (job, inputs), result in results:
             record(job, entry(job, inputs, result, root), False)
         for job, _ in todo:
             remove_stale_temporaries(Path(job.output))
+        for folder in created:  # no empty directories left behind by jobs that all failed
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
     return BatchResult([entries[i] for i in ids], skipped)
 
 
