@@ -132,3 +132,27 @@ def test_resume_after_the_batch_process_is_killed_redoes_only_unfinished_jobs(lo
             assert (tmp_path / "killed" / name).read_bytes() == (tmp_path / "fresh" / name).read_bytes(), name
     leftovers = [p.name for p in (tmp_path / "killed").rglob(".*")]
     assert leftovers == []  # the killed job's temporary was cleaned up
+
+
+def test_study_of_a_manifest_compares_each_wedge_with_its_highest_frequency(shots, tmp_path):
+    import numpy as np
+
+    out = tmp_path / "caches"
+    baked = run("bake", shots / "b.toml", "-o", out / "{scene}" / "{wedge}.h5", "--wedge", "solver.frequency=240,960",
+                "--no-progress")
+    assert baked.exit_code == 0, baked.output
+    result = run("study", out / "manifest.json", "--json")
+    assert result.exit_code == 0, result.output
+    (table,) = json.loads(result.output)
+    assert table["reference"] == "shot_b/frequency-960.h5"
+    rows = {row["id"]: row for row in table["rows"]}
+    assert rows["shot_b/frequency-960.h5"]["position_rms"] == 0.0  # the reference against itself
+    with read_cache(out / "shot_b" / "frequency-240.h5") as low, read_cache(out / "shot_b" / "frequency-960.h5") as high:
+        first = high.points("sheet", 1).astype(np.float64)
+        size = np.linalg.norm(first.max(axis=0) - first.min(axis=0))
+        distances = np.concatenate([np.linalg.norm(low.points("sheet", f).astype(np.float64) - high.points("sheet", f), axis=1)
+                                    for f in high.frames])
+    np.testing.assert_allclose(rows["shot_b/frequency-240.h5"]["position_rms"], np.sqrt(np.mean(distances**2)) / size, rtol=1e-9)
+    text = run("study", out / "manifest.json")
+    assert "errors against shot_b/frequency-960.h5" in text.output and "solver.frequency=240" in text.output
+    assert run("study", shots / "a.toml").exit_code == 2  # a scene still needs --sweep
