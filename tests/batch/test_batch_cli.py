@@ -156,3 +156,14 @@ def test_study_of_a_manifest_compares_each_wedge_with_its_highest_frequency(shot
     text = run("study", out / "manifest.json")
     assert "errors against shot_b/frequency-960.h5" in text.output and "solver.frequency=240" in text.output
     assert run("study", shots / "a.toml").exit_code == 2  # a scene still needs --sweep
+
+
+def test_scheduler_without_the_dask_extra_or_with_a_bad_address_is_one_line(shots, tmp_path, monkeypatch):
+    result = run("bake", shots / "a.toml", "-o", tmp_path / "{name}.h5", "--scheduler", "nowhere")
+    if "not installed" not in result.output:  # the extra is installed: the address is checked
+        assert result.exit_code == 1 and "give tcp://HOST:PORT of a Dask scheduler, or 'local'" in result.output
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if the extra were not installed
+    result = run("bake", shots / "a.toml", "-o", tmp_path / "{name}.h5", "--scheduler", "tcp://127.0.0.1:1")
+    assert result.exit_code == 1
+    assert 'not installed; install the extra with: python -m pip install "clothtool[dask]"' in result.output
+    assert not list(tmp_path.glob("*.h5"))
