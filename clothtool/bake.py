@@ -34,12 +34,14 @@ STATS_FIELDS = ("max_speed", "kinetic_energy", "max_strain", "tether_stretch")
 class BakeOptions:
     """percentiles: also compute p99 strain per frame (costs a sort per phase type);
     compression / save_every: override the scene's output settings when given;
-    progress: called as progress(frames_done, frames_total) after each frame."""
+    progress: called as progress(frames_done, frames_total) after each frame;
+    metadata: extra string metadata for the cache header (e.g. a wedge's settings)."""
 
     percentiles: bool = False
     compression: str | None = None
     save_every: int | None = None
     progress: Callable[[int, int], None] | None = None
+    metadata: tuple[tuple[str, str], ...] = ()
 
 
 @dataclasses.dataclass
@@ -289,7 +291,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
         colliders=scene.colliders.infos() if _writes_colliders(scene) else (),
         attributes=frozenset(attributes),
         stats_fields=STATS_FIELDS if "stats" in attributes else (),
-        metadata={"scene": scene.name, "generator": f"clothtool {__version__}"},
+        metadata={**dict(options.metadata), "scene": scene.name, "generator": f"clothtool {__version__}"},
     )
     total = scene.frame_count
     frame_dt = 1.0 / scene.fps

@@ -9,6 +9,7 @@ from clothtool.cli.bake import bake
 from clothtool.cli.common import OneLineErrorGroup
 from clothtool.cli.cook import cook
 from clothtool.cli.inspect import inspect
+from clothtool.cli.batch import batch
 from clothtool.cli.study import study
 
 
@@ -22,3 +23,4 @@ main.add_command(cook)
 main.add_command(bake)
 main.add_command(inspect)
 main.add_command(study)
+main.add_command(batch)

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from clothtool.cli.batch import batch_options, is_batch, run_bake_batch, wedge_options
 from clothtool.cli.common import emit_json, handle_errors, warn
 from clothtool.cli.progress import bake_progress
 
@@ -22,22 +23,10 @@ def parse_frames(ctx, param, value):
     return start, end
 
 
-def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) -> None:
-    """The cache (and its partial name, kept if the bake fails) and the report must not be
-    any file the scene read."""
-    from clothtool.inputs import refuse_output_onto_input
-    from clothtool.io.cache import NULL_OUTPUTS, partial_path
-
-    if output not in NULL_OUTPUTS:
-        refuse_output_onto_input(output, inputs, "cache")
-        refuse_output_onto_input(partial_path(output), inputs, "partial cache a failed bake keeps")
-    if report_path is not None:
-        refuse_output_onto_input(report_path, inputs, "report")
-
-
 @click.command()
-@click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames.")
+@click.argument("scenes", metavar="SCENE...", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
+@click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames; "
+              "for several scenes or wedges a template such as 'caches/{scene}/{wedge}.usdc'.")
 @click.option("--dry-run", is_flag=True, help="Print the stage plan and an estimated cost; bake nothing.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a scene or preset key, e.g. --set solver.frequency=600 (repeatable).")
@@ -51,9 +40,14 @@ def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) ->
 @click.option("--strict", is_flag=True, help="Treat warnings (mesh repairs when cooking on the fly) as errors.")
 @click.option("--force", is_flag=True, help="Bake anyway: beyond the workload limits (iterations per frame, frames, disk space) and the explicit integrator's stability limit.")
 @click.option("--progress/--no-progress", default=None, help="Progress on stderr: a bar on a terminal, else a line every CLOTHTOOL_PROGRESS_INTERVAL s [10] (default: bar only on a terminal).")
+@wedge_options
+@batch_options
 @handle_errors
-def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force, progress):
+def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force,
+         progress, wedges, wedge_zips, jobs_n, scheduler, manifest, resume):
     """Bake SCENE (a scene .toml) into a cache.
+
+    Several scenes or globs, --wedge, or an output template bake as a batch (see --jobs).
 
     Exit code 1 on bad input or an unstable bake (the frames written so far are kept in
     NAME.partial.SUFFIX).
@@ -63,15 +57,20 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
       clothtool bake examples/skirt/scene.toml -o out/skirt.usdc --report out/skirt.json
       clothtool bake examples/skirt/scene.toml -o out/skirt.h5 --set solver.frequency=600 --frames 1:24 --profile
       clothtool bake examples/skirt/scene.toml --dry-run
+      clothtool bake 'shots/*.toml' -o 'caches/{scene}/{wedge}.usdc' --wedge solver.frequency=300,600 --jobs 2
     """
+    if is_batch(scenes, output, jobs_n=jobs_n, scheduler=scheduler, manifest=manifest, wedges=wedges, wedge_zips=wedge_zips):
+        run_bake_batch(scenes, output, list(overrides) + (["solver.force=true"] if force else []), frames, strict, wedges,
+                       wedge_zips, as_json, jobs_n, scheduler, manifest, resume, progress, dry_run=dry_run,
+                       report_path=report_path, profile=profile, compression=compression, save_every=save_every)
+        return
+    scene = scenes[0]
     from clothtool.bake import BakeOptions
     from clothtool.bake import bake as run_bake
     from clothtool.errors import UnstableError
-    from clothtool.inputs import recording_inputs
-    from clothtool.io.cache import check_cache_output_name
-    from clothtool.report import check_report_path, format_profile_table, format_summary, write_report
+    from clothtool.preflight import load_for_bake
+    from clothtool.report import format_profile_table, format_summary, write_report
     from clothtool.scene.scene import load_scene
-
     from clothtool.workload import check_workload
 
     overrides = list(overrides) + (["solver.force=true"] if force else [])
@@ -85,13 +84,7 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
         return
     if output is None:
         raise click.UsageError("Missing option '-o' / '--output' (or give --dry-run).")
-    check_cache_output_name(output)
-    if report_path is not None:
-        check_report_path(report_path)
-    with recording_inputs() as inputs:
-        loaded = load_scene(scene, list(overrides), frames, strict=strict)
-    refuse_outputs_onto_inputs(output, report_path, inputs)
-    check_workload(loaded, output, loaded.solver.force)
+    loaded = load_for_bake(scene, output, overrides, frames, strict, report_path)
     for cloth in loaded.cloths:
         for line in cloth.cook_warnings:
             warn(line)

@@ -8,13 +8,14 @@ from pathlib import Path
 
 import click
 
+from clothtool.cli.batch import batch_options, is_batch, progress_option, run_cook_batch
 from clothtool.cli.common import emit_json, float_list, handle_errors, warn
 
 
 @click.command()
-@click.argument("mesh", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("meshes", metavar="MESH...", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
-              help="Fabric file to write (.fabric.h5).")
+              help="Fabric file to write (.fabric.h5); for several meshes a template such as 'out/{name}.fabric.h5'.")
 @click.option("--preset", help="Cook preset: a bundled name (garment, coarse) or a .toml path; options below override it.")
 @click.option("--prim", help="USD input: path of the UsdGeom.Mesh prim (default: the first mesh).")
 @click.option("--weld", type=float, help="Weld vertices closer than this fraction of the bounding-box diagonal [1e-6].")
@@ -35,15 +36,26 @@ from clothtool.cli.common import emit_json, float_list, handle_errors, warn
 @click.option("--stiffness-attr", help="Vertex attribute (0..1) scaling constraint stiffness.")
 @click.option("--virtual-particles", type=int, help="Virtual collision particles per triangle: 0, 1, 3 or 4 [0].")
 @click.option("--strict", is_flag=True, help="Treat repairs and warnings as errors.")
-@click.option("--json", "as_json", is_flag=True, help="Print the fabric summary as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print the fabric summary (batch: the manifest) as JSON.")
+@batch_options
+@progress_option
 @handle_errors
-def cook(mesh: Path, output: Path, preset, prim, strict, as_json, **overrides) -> None:
+def cook(meshes, output: Path, preset, prim, strict, as_json, jobs_n, scheduler, manifest, resume, progress,
+         **overrides) -> None:
     """Cook MESH (OBJ, PLY, glTF/GLB, OFF, STL or USD) into a fabric file.
 
+    Several meshes or globs with an output template cook as a batch (see --jobs).
+
     \b
-    Example:
+    Examples:
       clothtool cook examples/skirt/skirt.obj --preset garment -o skirt.fabric.h5
+      clothtool cook 'garments/*.obj' --preset garment -o 'out/{name}.fabric.h5' --jobs 2
     """
+    if is_batch(meshes, output, jobs_n=jobs_n, scheduler=scheduler, manifest=manifest):
+        overrides = {k: (str(v) if isinstance(v, Path) else v) for k, v in overrides.items() if v is not None}
+        run_cook_batch(meshes, output, preset, prim, strict, overrides, as_json, jobs_n, scheduler, manifest, resume, progress)
+        return
+    mesh = meshes[0]
     from clothtool.cook.cooker import CookOptions, cook_fabric
     from clothtool.inputs import recording_inputs, refuse_output_onto_input
     from clothtool.io.atomic import check_output_path
