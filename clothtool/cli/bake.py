@@ -57,6 +57,31 @@ def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) ->
         refuse_output_onto_input(report_path, inputs, "report")
 
 
+def load_any_scene(scene: Path, overrides: list[str], frames, strict: bool, cloth, collider):
+    """A TOML scene, or a USD stage (a DCC's shot) by its suffix."""
+    from clothtool.scene.usdstage import is_usd_stage, load_usd_scene
+
+    if is_usd_stage(scene):
+        return load_usd_scene(scene, overrides, frames, strict=strict, cloth=tuple(cloth), collider=tuple(collider))
+    if cloth or collider:
+        raise click.UsageError("--cloth and --collider pick prims of a USD stage; SCENE is a TOML scene")
+    from clothtool.scene.scene import load_scene
+
+    return load_scene(scene, overrides, frames, strict=strict)
+
+
+def cache_output(loaded, output: str, standalone: bool, save_every: int | None = None):
+    """``output``, or a layer-over-shot writer for a USD stage baked into a USD file."""
+    from clothtool.scene.usdstage import is_usd_stage
+
+    if standalone or not is_usd_stage(loaded.path) or not is_usd_stage(Path(output)):
+        return output
+    from clothtool.io.cache import CacheOptions
+    from clothtool.io.usdshot import ShotLayerWriter
+
+    return ShotLayerWriter(Path(output), loaded, CacheOptions(save_every=save_every or loaded.output.save_every))
+
+
 @click.command()
 @click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames.")
@@ -72,10 +97,21 @@ def refuse_outputs_onto_inputs(output: str, report_path: Path | None, inputs) ->
 @click.option("--save-every", type=click.IntRange(min=1), help="USD: save every N frames so memory stays flat [10].")
 @click.option("--strict", is_flag=True, help="Treat warnings (mesh repairs when cooking on the fly) as errors.")
 @click.option("--force", is_flag=True, help="Run the explicit integrator even beyond its stability limit.")
+@click.option("--cloth", multiple=True, metavar="/PRIM",
+              help="USD stage: bake this Mesh prim as cloth (repeatable) [prims with clothtool:role = \"cloth\"].")
+@click.option("--collider", multiple=True, metavar="PATTERN",
+              help="USD stage: collide with prims whose path matches (repeatable) [prims with UsdPhysics.CollisionAPI].")
+@click.option("--standalone", is_flag=True,
+              help="USD stage to USD cache: write a plain cache, not a layer over the shot.")
 @click.option("--progress/--no-progress", default=None, help="Progress bar on stderr [on when stderr is a terminal].")
 @handle_errors
-def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force, progress):
-    """Bake SCENE (a scene .toml) into a cache.
+def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force,
+         cloth, collider, standalone, progress):
+    """Bake SCENE (a scene .toml, or a USD stage: a DCC's shot) into a cache.
+
+    From a USD stage into a USD file the cache is a layer that sublayers the shot and
+    overrides the garments' points, so a DCC opens one file with the body and the cloth
+    (--standalone writes the plain cache instead).
 
     Exit code 1 on bad input or an unstable bake (the frames written so far are kept in
     NAME.partial.SUFFIX).
@@ -85,6 +121,7 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
       clothtool bake examples/skirt/scene.toml -o out/skirt.usdc --report out/skirt.json
       clothtool bake examples/skirt/scene.toml -o out/skirt.h5 --set solver.frequency=600 --frames 1:24 --profile
       clothtool bake examples/skirt/scene.toml --dry-run
+      clothtool bake examples/shot/shot.usda -o out/shot_cloth.usda
     """
     from clothtool.bake import BakeOptions
     from clothtool.bake import bake as run_bake
@@ -92,15 +129,13 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
     from clothtool.inputs import recording_inputs
     from clothtool.io.cache import check_cache_output_name
     from clothtool.report import check_report_path, format_profile_table, format_summary, write_report
-    from clothtool.scene.scene import load_scene
-
     from clothtool.workload import check_workload
 
     overrides = list(overrides) + (["solver.force=true"] if force else [])
     if dry_run:
         from clothtool.bake import format_plan, plan
 
-        loaded = load_scene(scene, list(overrides), frames, strict=strict)
+        loaded = load_any_scene(scene, list(overrides), frames, strict, cloth, collider)
         check_workload(loaded, None, loaded.solver.force)
         data = plan(loaded)
         emit_json(data) if as_json else click.echo(format_plan(data))
@@ -111,7 +146,7 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
     if report_path is not None:
         check_report_path(report_path)
     with recording_inputs() as inputs:
-        loaded = load_scene(scene, list(overrides), frames, strict=strict)
+        loaded = load_any_scene(scene, list(overrides), frames, strict, cloth, collider)
     refuse_outputs_onto_inputs(output, report_path, inputs)
     check_workload(loaded, output, loaded.solver.force)
     for cloth in loaded.cloths:
@@ -121,7 +156,7 @@ def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_jso
     failed = None
     with progress_bar(show_progress) as update:
         try:
-            stats = run_bake(loaded, output, BakeOptions(percentiles=True, compression=compression, save_every=save_every, progress=update))
+            stats = run_bake(loaded, cache_output(loaded, output, standalone, save_every), BakeOptions(percentiles=True, compression=compression, save_every=save_every, progress=update))
         except UnstableError as exc:
             if getattr(exc, "stats", None) is None:  # refused before the first frame
                 raise
