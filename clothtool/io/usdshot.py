@@ -53,8 +53,9 @@ class ShotLayerWriter(StreamedCacheWriter):
             raise ClothtoolError(f"{self.path}: cannot create the USD layer ({_first_line(exc)}); check the directory is writable") from None
         shot = Usd.Stage.Open(str(self._shot))
         layer.subLayerPaths.append(Path(os.path.relpath(self._shot.resolve(), self.path.resolve().parent)).as_posix())
-        if shot.GetRootLayer().defaultPrim:
-            layer.defaultPrim = shot.GetRootLayer().defaultPrim
+        # the shot's default prim, else the garment's top-level prim (a stage needs one)
+        first_cloth = Sdf.Path(next(iter(self._cloths.values())).prim)
+        layer.defaultPrim = shot.GetRootLayer().defaultPrim or first_cloth.GetPrefixes()[0].name
         layer.timeCodesPerSecond = float(header.fps)
         layer.framesPerSecond = float(header.fps)
         layer.startTimeCode = float(header.start_frame)

@@ -188,9 +188,17 @@ def _mesh(prim, clock: ShotClock, source: str) -> dict:
 
 
 def skinning_targets(stage, source: str) -> dict:
-    """Prim path -> (skeleton query, skinning query) of every mesh a UsdSkel skeleton skins."""
+    """Prim path -> (skeleton query, skinning query, skeleton) of every mesh a UsdSkel
+    skeleton skins (pxr's warnings about broken skeletons are held back: the collider that
+    uses one reports it in one line)."""
+    from clothtool.io.usd_env import quiet_stderr
     from pxr import Usd, UsdSkel
 
+    with quiet_stderr():
+        return _skinning_targets(stage, Usd, UsdSkel)
+
+
+def _skinning_targets(stage, Usd, UsdSkel) -> dict:
     cache = UsdSkel.Cache()
     targets = {}
     for prim in stage.Traverse():
@@ -213,7 +221,7 @@ def _skinned(prim, skinning, clock: ShotClock, source: str) -> dict:
 
     query, target, skeleton = skinning
     path = prim.GetPath()
-    if not query:
+    if not query or not query.HasBindPose():
         raise SceneError(
             f"{source}: prim {path} is bound to skeleton {skeleton.GetPath()} which cannot be evaluated "
             "(check its joints, bindTransforms and restTransforms); fix the skeleton export"
@@ -270,7 +278,10 @@ def body_collider(prim, name: str, clock: ShotClock, skinning, source: str) -> C
     common = dict(name=name, thickness=thickness, friction=friction, fps=clock.tcps)
     none3, none1, no_planes = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))
     if skinning is not None:
-        fields = _skinned(prim, skinning, clock, source)
+        from clothtool.io.usd_env import quiet_stderr
+
+        with quiet_stderr():  # pxr warns on stderr; what matters is raised in one line
+            fields = _skinned(prim, skinning, clock, source)
         return Collider(track=None, centers=none3, radii=none1, planes=no_planes, **fields, **common)
     track = transform_track(prim, clock, source)
     if type_name in ANALYTIC_TYPES:
