@@ -141,6 +141,26 @@ def _track_pose(track):
     return pose
 
 
+def rest_time(scene: Scene) -> float:
+    """Seconds at which the cloths are at rest: the first pre-roll frame, else the start."""
+    return scene.frame_time(scene.start_frame - scene.preroll)
+
+
+def _attachment(scene: Scene, cloth, model):
+    """The binding of ``cloth``'s pinned and max-distance particles to the mesh colliders it
+    attaches to (clothtool.solver.attach), or None when it attaches to none."""
+    if not cloth.attach or scene.colliders is None:
+        return None
+    from clothtool.solver.attach import bind_attachment
+
+    pinned = model.inv_mass == 0
+    bound = np.flatnonzero(pinned | np.isfinite(model.max_distance))
+    if bound.size == 0:
+        return None
+    points, triangles, mask = scene.colliders.rest_mesh(rest_time(scene), cloth.attach)
+    return bind_attachment(model.rest_pos, bound, pinned[bound], points, triangles[mask], cloth.name)
+
+
 def make_solvers(scene: Scene, profiler: StageProfiler) -> list[Integrator]:
     """One solver of the scene's integrator per cloth instance (after checking the
     integrator can do all the scene asks for)."""
@@ -161,6 +181,9 @@ def make_solvers(scene: Scene, profiler: StageProfiler) -> list[Integrator]:
         track = _track_pose(cloth.track) if cloth.track is not None else None
         teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
         extra = {"frame_dt": 1.0 / scene.fps} if scene.solver.integrator == "explicit" else {}
+        attachment = _attachment(scene, cloth, model)
+        if attachment is not None:
+            extra["attachment"] = attachment
         solvers.append(
             solver_class(model, scene.solver, environment, profiler, track, teleports, cloth.initial_velocity, **extra)
         )
@@ -275,6 +298,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
         for solver, meter in zip(solvers, meters):
             solver.warm_up()
             meter.warm_up()
+    preroll(scene, solvers)
 
     attributes = scene.output.attributes
     cache_options = CacheOptions(
@@ -336,6 +360,18 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
         raise
     _finish(stats, profiler, wall0, cpu0)
     return stats
+
+
+def preroll(scene: Scene, solvers: list[ClothSolver]) -> None:
+    """Simulate ``scene.preroll`` frames before the start frame (not written): the bodies
+    blend from their rest pose to the first frame's, and the cloths settle on them."""
+    frame_dt = 1.0 / scene.fps
+    for frame in range(scene.start_frame - scene.preroll + 1, scene.start_frame + 1):
+        plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
+        for index in range(max(p.iterations for p in plans)):
+            for solver, frame_plan in zip(solvers, plans):
+                if index < frame_plan.iterations:
+                    solver.iterate(solver.iteration(frame_plan, index))
 
 
 def _finish(stats: BakeStats, profiler: StageProfiler, wall0: float, cpu0: float) -> None:

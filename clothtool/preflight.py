@@ -9,7 +9,8 @@ from pathlib import Path
 
 from clothtool.inputs import recording_inputs, refuse_output_onto_input
 from clothtool.io.cache import NULL_OUTPUTS, check_cache_output_name, partial_path
-from clothtool.scene.scene import Scene, load_scene
+from clothtool.scene.scene import Scene
+from clothtool.scene.usdstage import load_any_scene
 from clothtool.workload import check_workload
 
 
@@ -20,8 +21,11 @@ def load_for_bake(
     frames: tuple[int, int] | None = None,
     strict: bool = False,
     report_path: str | os.PathLike | None = None,
+    cloth: tuple[str, ...] = (),
+    collider: tuple[str, ...] = (),
 ) -> Scene:
-    """The scene at ``scene_path``, loaded and checked for a bake into ``output`` (a cache
+    """The scene at ``scene_path`` (TOML, or a USD stage with ``cloth``/``collider`` picks),
+    loaded and checked for a bake into ``output`` (a cache
     path or "null") with an optional report. Raises UsageError (an output it cannot write or
     one that is an input) or SceneError (bad scene, absurd workload)."""
     from clothtool.report import check_report_path
@@ -30,7 +34,7 @@ def load_for_bake(
     if report_path is not None:
         check_report_path(report_path)
     with recording_inputs() as inputs:
-        scene = load_scene(scene_path, list(overrides), frames, strict=strict)
+        scene = load_any_scene(scene_path, list(overrides), frames, strict, cloth, collider)
     if str(output) not in NULL_OUTPUTS:
         refuse_output_onto_input(output, inputs, "cache")
         refuse_output_onto_input(partial_path(output), inputs, "partial cache a failed bake keeps")

@@ -8,6 +8,9 @@
   neckline through the red vertex colour channel (``--pin-attr color_r``).
 * ``skirt/walk.toml``: the skirt on a walking character proxy: a pelvis sphere and two
   tapered-capsule legs swinging on keyframed tracks, the skirt simulated in the hips' frame.
+* ``shot/shot.usda``: a DCC-style shot: a low-poly humanoid (torso, hips, legs) skinned with
+  UsdSkel and walking, and a skirt modelled on it in the bind pose, marked
+  ``clothtool:role = "cloth"`` with a painted waistband that attaches to the body.
 * ``sheet/sheet.obj`` and ``sheet/swing.toml``: a 1 m square sheet (24 x 24 quads) pinned
   along its top edge, released 60 degrees from hanging: the integrator studies' test scene.
 
@@ -222,12 +225,168 @@ def write_sheet_obj(path: Path, quads: int = 24) -> None:
     path.write_text("\n".join(lines) + "\n")
 
 
+SHOT_FRAMES = (1, 48)
+JOINTS = ["hips", "hips/spine", "hips/l_thigh", "hips/l_thigh/l_shin", "hips/r_thigh", "hips/r_thigh/r_shin"]
+JOINT_WORLD = {  # bind pose: joint positions in the world (metres, Y up), no rotation
+    "hips": (0.0, 0.92, 0.0), "hips/spine": (0.0, 1.12, 0.0),
+    "hips/l_thigh": (0.09, 0.88, 0.0), "hips/l_thigh/l_shin": (0.09, 0.48, 0.0),
+    "hips/r_thigh": (-0.09, 0.88, 0.0), "hips/r_thigh/r_shin": (-0.09, 0.48, 0.0),
+}
+
+
+def _tube(center_x: float, heights, radii_x, radii_z, segments: int = 12):
+    """Rings of an elliptical tube along Y, closed by a centre vertex at each end."""
+    points = []
+    for y, rx, rz in zip(heights, radii_x, radii_z):
+        for k in range(segments):
+            angle = 2 * np.pi * k / segments
+            points.append((center_x + rx * np.sin(angle), y, rz * np.cos(angle)))
+    top, bottom = len(points), len(points) + 1
+    points += [(center_x, heights[0], 0.0), (center_x, heights[-1], 0.0)]
+    faces = []
+    for r in range(len(heights) - 1):
+        for k in range(segments):
+            a, b = r * segments + k, r * segments + (k + 1) % segments
+            faces.append((a, b, b + segments, a + segments))  # outward (heights run downwards)
+    last = (len(heights) - 1) * segments
+    faces += [(top, (k + 1) % segments, k) for k in range(segments)]
+    faces += [(bottom, last + k, last + (k + 1) % segments) for k in range(segments)]
+    return np.asarray(points), faces
+
+
+def humanoid_body():
+    """A low-poly body (torso with hips, two legs as closed tubes) and its skin weights:
+    (points, faces, joint indices (v,2), joint weights (v,2))."""
+    torso_y = [1.45, 1.32, 1.18, 1.05, 0.95, 0.86, 0.78]
+    torso, torso_faces = _tube(0.0, torso_y, [0.15, 0.16, 0.14, 0.13, 0.15, 0.165, 0.12],
+                               [0.09, 0.10, 0.09, 0.085, 0.10, 0.105, 0.08])
+    parts, faces, influences = [torso], list(torso_faces), []
+    for y in torso[:, 1]:  # hips below the waist, spine above, blended over 0.98..1.12
+        w = float(np.clip((y - 0.98) / 0.14, 0.0, 1.0))
+        influences.append(((0, 1), (1.0 - w, w)))
+    for side, (x, thigh, shin) in enumerate(((0.09, 2, 3), (-0.09, 4, 5))):
+        leg_y = [0.90, 0.78, 0.62, 0.50, 0.46, 0.30, 0.14, 0.06]
+        leg, leg_faces = _tube(x, leg_y, [0.075, 0.078, 0.064, 0.052, 0.05, 0.047, 0.038, 0.04],
+                               [0.075, 0.078, 0.064, 0.052, 0.05, 0.047, 0.038, 0.05])
+        offset = sum(len(p) for p in parts)
+        faces += [tuple(i + offset for i in f) for f in leg_faces]
+        parts.append(leg)
+        for y in leg[:, 1]:
+            if y > 0.80:  # the top of the thigh blends into the hips
+                w = float(np.clip((y - 0.80) / 0.12, 0.0, 1.0))
+                influences.append(((0, thigh), (w, 1.0 - w)))
+            else:  # the knee blends thigh and shin over 0.42..0.54
+                w = float(np.clip((y - 0.42) / 0.12, 0.0, 1.0))
+                influences.append(((thigh, shin), (w, 1.0 - w)))
+    indices = np.array([i for i, _ in influences], np.int32)
+    weights = np.array([w for _, w in influences], np.float32)
+    return np.vstack(parts), faces, indices, weights
+
+
+def walk_pose(frame: float, fps: float = 24.0):
+    """Per joint (translation, quaternion w x y z) local transforms of the walk at ``frame``.
+    The stride ramps up from the bind pose over the first half second (the skirt, modelled
+    in the bind pose, starts settled), then one stride per second at 1 m/s."""
+    t = (frame - SHOT_FRAMES[0]) / fps
+    ramp = float(np.clip(t / 0.5, 0.0, 1.0))
+    ramp = ramp * ramp * (3 - 2 * ramp)
+    phase = 2 * np.pi * t
+    swing = np.radians(28.0) * ramp * np.sin(phase)
+    knee_l = np.radians(35.0) * ramp * max(0.0, np.sin(phase + 1.2))
+    knee_r = np.radians(35.0) * ramp * max(0.0, np.sin(phase + 1.2 + np.pi))
+
+    def about_x(angle):
+        return (float(np.cos(angle / 2)), float(np.sin(angle / 2)), 0.0, 0.0)
+
+    def about_y(angle):
+        return (float(np.cos(angle / 2)), 0.0, float(np.sin(angle / 2)), 0.0)
+
+    hips_at = np.array(JOINT_WORLD["hips"]) + [0.0, 0.015 * ramp * np.cos(2 * phase), 0.9 * t * ramp]
+    parent = {"hips/spine": "hips", "hips/l_thigh": "hips", "hips/r_thigh": "hips",
+              "hips/l_thigh/l_shin": "hips/l_thigh", "hips/r_thigh/r_shin": "hips/r_thigh"}
+    local = {j: tuple(np.subtract(JOINT_WORLD[j], JOINT_WORLD[parent[j]])) for j in parent}
+    return [
+        (tuple(hips_at), about_y(np.radians(6.0) * ramp * np.sin(phase))),
+        (local["hips/spine"], about_y(-np.radians(8.0) * ramp * np.sin(phase))),
+        (local["hips/l_thigh"], about_x(-swing)),
+        (local["hips/l_thigh/l_shin"], about_x(knee_l)),
+        (local["hips/r_thigh"], about_x(swing)),
+        (local["hips/r_thigh/r_shin"], about_x(knee_r)),
+    ]
+
+
+def write_walk_shot(path: Path) -> None:
+    """A DCC-style shot: a UsdSkel-skinned humanoid walking, and the skirt modelled on it in
+    the bind pose, marked as cloth with a painted waistband (primvar ``pin``)."""
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdPhysics, UsdSkel, Vt
+
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    stage.SetTimeCodesPerSecond(24.0)
+    stage.SetFramesPerSecond(24.0)
+    stage.SetStartTimeCode(SHOT_FRAMES[0])
+    stage.SetEndTimeCode(SHOT_FRAMES[1])
+    stage.GetRootLayer().customLayerData = {"clothtool": {"solver": "production"}}
+    root = UsdGeom.Xform.Define(stage, "/Shot")
+    stage.SetDefaultPrim(root.GetPrim())
+    skel_root = UsdSkel.Root.Define(stage, "/Shot/Character")
+    skeleton = UsdSkel.Skeleton.Define(stage, "/Shot/Character/Skeleton")
+    skeleton.CreateJointsAttr(JOINTS)
+    skeleton.CreateBindTransformsAttr(Vt.Matrix4dArray(
+        [Gf.Matrix4d(1.0).SetTranslate(Gf.Vec3d(*JOINT_WORLD[j])) for j in JOINTS]))
+    rest = walk_pose(SHOT_FRAMES[0])
+    skeleton.CreateRestTransformsAttr(Vt.Matrix4dArray(
+        [Gf.Matrix4d(1.0).SetTranslate(Gf.Vec3d(*map(float, t))) for t, _ in rest]))
+    anim = UsdSkel.Animation.Define(stage, "/Shot/Character/Skeleton/Walk")
+    anim.CreateJointsAttr(JOINTS)
+    anim.CreateScalesAttr(Vt.Vec3hArray([Gf.Vec3h(1, 1, 1)] * len(JOINTS)))
+    translations, rotations = anim.CreateTranslationsAttr(), anim.CreateRotationsAttr()
+    for frame in range(SHOT_FRAMES[0], SHOT_FRAMES[1] + 1):
+        pose = walk_pose(frame)
+        translations.Set(Vt.Vec3fArray([Gf.Vec3f(*map(float, t)) for t, _ in pose]), Usd.TimeCode(frame))
+        rotations.Set(Vt.QuatfArray([Gf.Quatf(q[0], q[1], q[2], q[3]) for _, q in pose]), Usd.TimeCode(frame))
+    UsdSkel.BindingAPI.Apply(skeleton.GetPrim()).CreateAnimationSourceRel().SetTargets([anim.GetPath()])
+    points, faces, indices, weights = humanoid_body()
+    body = UsdGeom.Mesh.Define(stage, "/Shot/Character/Body")
+    body.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, p)) for p in points]))
+    body.CreateFaceVertexCountsAttr(Vt.IntArray([len(f) for f in faces]))
+    body.CreateFaceVertexIndicesAttr(Vt.IntArray([int(i) for f in faces for i in f]))
+    body.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    binding = UsdSkel.BindingAPI.Apply(body.GetPrim())
+    binding.CreateSkeletonRel().SetTargets([skeleton.GetPath()])
+    binding.CreateJointIndicesPrimvar(False, 2).Set(Vt.IntArray([int(i) for i in indices.ravel()]))
+    binding.CreateJointWeightsPrimvar(False, 2).Set(Vt.FloatArray([float(w) for w in weights.ravel()]))
+    binding.CreateGeomBindTransformAttr(Gf.Matrix4d(1.0))
+    UsdPhysics.CollisionAPI.Apply(body.GetPrim())
+    body.GetPrim().CreateAttribute("clothtool:thickness", Sdf.ValueTypeNames.Double).Set(0.005)
+
+    pos, uv, quads, pin, _ = skirt_grid(columns=36, rings=14)
+    skirt = UsdGeom.Mesh.Define(stage, "/Shot/Skirt")
+    skirt.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, p)) for p in pos]))
+    skirt.CreateFaceVertexCountsAttr(Vt.IntArray([4] * len(quads)))
+    skirt.CreateFaceVertexIndicesAttr(Vt.IntArray([int(i) for f in quads for i in f]))
+    skirt.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    primvars = UsdGeom.PrimvarsAPI(skirt)
+    st = primvars.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.faceVarying)
+    st.Set(Vt.Vec2fArray([Gf.Vec2f(*map(float, uv[i])) for f in quads for i in f]))
+    primvars.CreatePrimvar("pin", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex).Set(
+        Vt.FloatArray([float(v) for v in pin]))
+    prim = skirt.GetPrim()
+    prim.CreateAttribute("clothtool:role", Sdf.ValueTypeNames.String).Set("cloth")
+    prim.CreateAttribute("clothtool:cook:preset", Sdf.ValueTypeNames.String).Set("garment")
+    prim.CreateAttribute("clothtool:material", Sdf.ValueTypeNames.String).Set("cotton")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(stage.GetRootLayer().ExportToString())
+
+
 def main() -> None:
     write_skirt_usda(HERE / "skirt" / "skirt.usda")
     write_cape_obj(HERE / "cape" / "cape.obj")
     (HERE / "skirt" / "walk.toml").write_text(WALK_HEADER + walk_tracks())
     write_sheet_obj(HERE / "sheet" / "sheet.obj")
     (HERE / "sheet" / "swing.toml").write_text(SWING)
+    write_walk_shot(HERE / "shot" / "shot.usda")
 
 
 if __name__ == "__main__":

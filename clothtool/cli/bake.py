@@ -23,6 +23,18 @@ def parse_frames(ctx, param, value):
     return start, end
 
 
+def cache_output(loaded, output: str, standalone: bool, save_every: int | None = None):
+    """``output``, or a layer-over-shot writer for a USD stage baked into a USD file."""
+    from clothtool.scene.usdstage import is_usd_stage
+
+    if standalone or not is_usd_stage(loaded.path) or not is_usd_stage(Path(output)):
+        return output
+    from clothtool.io.cache import CacheOptions
+    from clothtool.io.usdshot import ShotLayerWriter
+
+    return ShotLayerWriter(Path(output), loaded, CacheOptions(save_every=save_every or loaded.output.save_every))
+
+
 @click.command()
 @click.argument("scenes", metavar="SCENE...", nargs=-1, required=True, type=click.Path(dir_okay=False, path_type=Path))
 @click.option("-o", "--output", help="Cache to write: .usdc/.usda/.usd, .h5/.hdf5, or 'null' to discard frames; "
@@ -39,13 +51,23 @@ def parse_frames(ctx, param, value):
 @click.option("--save-every", type=click.IntRange(min=1), help="USD: save every N frames so memory stays flat [10].")
 @click.option("--strict", is_flag=True, help="Treat warnings (mesh repairs when cooking on the fly) as errors.")
 @click.option("--force", is_flag=True, help="Bake anyway: beyond the workload limits (iterations per frame, frames, disk space) and the explicit integrator's stability limit.")
+@click.option("--cloth", multiple=True, metavar="/PRIM",
+              help="USD stage: bake this Mesh prim as cloth (repeatable) [prims with clothtool:role = \"cloth\"].")
+@click.option("--collider", multiple=True, metavar="PATTERN",
+              help="USD stage: collide with prims whose path matches (repeatable) [prims with UsdPhysics.CollisionAPI].")
+@click.option("--standalone", is_flag=True,
+              help="USD stage to USD cache: write a plain cache, not a layer over the shot.")
 @click.option("--progress/--no-progress", default=None, help="Progress on stderr: a bar on a terminal, else a line every CLOTHTOOL_PROGRESS_INTERVAL s [10] (default: bar only on a terminal).")
 @wedge_options
 @batch_options
 @handle_errors
 def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force,
-         progress, wedges, wedge_zips, jobs_n, scheduler, manifest, resume):
-    """Bake SCENE (a scene .toml) into a cache.
+         cloth, collider, standalone, progress, wedges, wedge_zips, jobs_n, scheduler, manifest, resume):
+    """Bake SCENE (a scene .toml, or a USD stage: a DCC's shot) into a cache.
+
+    From a USD stage into a USD file the cache is a layer that sublayers the shot and
+    overrides the garments' points, so a DCC opens one file with the body and the cloth
+    (--standalone writes the plain cache instead).
 
     Several scenes or globs, --wedge, or an output template bake as a batch (see --jobs).
 
@@ -58,6 +80,7 @@ def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_js
       clothtool bake examples/skirt/scene.toml -o out/skirt.h5 --set solver.frequency=600 --frames 1:24 --profile
       clothtool bake examples/skirt/scene.toml --dry-run
       clothtool bake 'shots/*.toml' -o 'caches/{scene}/{wedge}.usdc' --wedge solver.frequency=300,600 --jobs 2
+      clothtool bake examples/shot/shot.usda -o out/shot_cloth.usda
     """
     if is_batch(scenes, output, jobs_n=jobs_n, scheduler=scheduler, manifest=manifest, wedges=wedges, wedge_zips=wedge_zips):
         run_bake_batch(scenes, output, list(overrides) + (["solver.force=true"] if force else []), frames, strict, wedges,
@@ -70,28 +93,28 @@ def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_js
     from clothtool.errors import UnstableError
     from clothtool.preflight import load_for_bake
     from clothtool.report import format_profile_table, format_summary, write_report
-    from clothtool.scene.scene import load_scene
+    from clothtool.scene.usdstage import load_any_scene
     from clothtool.workload import check_workload
 
     overrides = list(overrides) + (["solver.force=true"] if force else [])
     if dry_run:
         from clothtool.bake import format_plan, plan
 
-        loaded = load_scene(scene, list(overrides), frames, strict=strict)
+        loaded = load_any_scene(scene, list(overrides), frames, strict, cloth, collider)
         check_workload(loaded, None, loaded.solver.force)
         data = plan(loaded)
         emit_json(data) if as_json else click.echo(format_plan(data))
         return
     if output is None:
         raise click.UsageError("Missing option '-o' / '--output' (or give --dry-run).")
-    loaded = load_for_bake(scene, output, overrides, frames, strict, report_path)
+    loaded = load_for_bake(scene, output, overrides, frames, strict, report_path, cloth=cloth, collider=collider)
     for cloth in loaded.cloths:
         for line in cloth.cook_warnings:
             warn(line)
     failed = None
     with bake_progress(progress, f"bake {scene.name}") as update:
         try:
-            stats = run_bake(loaded, output, BakeOptions(percentiles=True, compression=compression, save_every=save_every, progress=update))
+            stats = run_bake(loaded, cache_output(loaded, output, standalone, save_every), BakeOptions(percentiles=True, compression=compression, save_every=save_every, progress=update))
         except UnstableError as exc:
             if getattr(exc, "stats", None) is None:  # refused before the first frame
                 raise

@@ -49,6 +49,12 @@ class Collider:
     deform_frames: np.ndarray | None = None  # (k,) frame numbers of the deformation samples
     deform_points: np.ndarray | None = None  # (k,m,3)
     fps: float = 24.0
+    # the pose garments were modelled on (a skinned body's bind pose), local frame; None: the
+    # points at the first deformation sample
+    rest_points: np.ndarray | None = None  # (m,3)
+    # pre-roll: from frame blend[0] to blend[1] the points blend from the rest pose to the
+    # first deformation sample (smoothstep), so a garment modelled in the bind pose settles
+    blend: tuple[float, float] | None = None
 
     def matrix(self, time: float) -> np.ndarray:
         """4x4 local -> world (column-vector convention)."""
@@ -62,11 +68,22 @@ class Collider:
             return self.mesh_points
         frame = time * self.fps
         frames = self.deform_frames
+        if self.blend is not None and frame < self.blend[1]:
+            first, last = self.blend
+            u = min(max((frame - first) / (last - first), 0.0), 1.0)
+            s = u * u * (3.0 - 2.0 * u)
+            return self.rest_pose() + s * (self.deform_points[0] - self.rest_pose())
         i = int(np.clip(np.searchsorted(frames, frame, side="right") - 1, 0, frames.shape[0] - 1))
         if i == frames.shape[0] - 1 or frame <= frames[0]:
             return self.deform_points[0 if frame <= frames[0] else i]
         u = (frame - frames[i]) / (frames[i + 1] - frames[i])
         return self.deform_points[i] + u * (self.deform_points[i + 1] - self.deform_points[i])
+
+    def rest_pose(self) -> np.ndarray:
+        """(m,3) local points of the rest pose (see ``rest_points``)."""
+        if self.rest_points is not None:
+            return self.rest_points
+        return self.mesh_points if self.deform_points is None else self.deform_points[0]
 
     def shape_matrix(self) -> np.ndarray:
         """4x4 from the cache's canonical shape frame to the collider's local frame: spheres
@@ -141,6 +158,24 @@ class SceneColliders:
                 self._cache.clear()
             self._cache[time] = self._evaluate(time)
         return self._cache[time]
+
+    def rest_mesh(self, time: float, names) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The mesh colliders in their rest pose, placed by their tracks at ``time``: world
+        points (m,3) and triangles (t,3) numbered as in ``at(time)``'s mesh arrays, and a
+        (t,) mask of the triangles of the colliders ``names``."""
+        points, triangles, mask, count = [], [], [], 0
+        for collider in self.colliders:
+            if collider.kind != "mesh":
+                continue
+            m = collider.matrix(time)
+            rest = collider.rest_pose()
+            points.append(rest @ m[:3, :3].T + m[:3, 3])
+            triangles.append(collider.mesh_triangles + count)
+            mask.append(np.full(collider.mesh_triangles.shape[0], collider.name in names))
+            count += rest.shape[0]
+        if not points:
+            return np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros(0, bool)
+        return np.concatenate(points), np.concatenate(triangles).astype(np.int32), np.concatenate(mask)
 
     def _evaluate(self, time: float) -> ColliderArrays:
         centers, radii, s_margin, s_friction, s_collider = [], [], [], [], []

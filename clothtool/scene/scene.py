@@ -28,13 +28,13 @@ if TYPE_CHECKING:  # pragma: no cover
 
 FORMAT_VERSION = 1
 TOP_LEVEL_KEYS = ("version", "scene", "solver", "output", "wind", "track", "cloth", "collider")
-SCENE_KEYS = ("name", "fps", "frames", "meters_per_unit", "up_axis", "gravity")
+SCENE_KEYS = ("name", "fps", "frames", "meters_per_unit", "up_axis", "gravity", "preroll")
 OUTPUT_KEYS = ("attributes", "compression", "save_every")
 OUTPUT_ATTRIBUTES = ("velocities", "rest", "stats", "colliders")
 WIND_KEYS = ("velocity", "track", "fluid_density")
 CLOTH_KEYS = (
     "fabric", "mesh", "cook", "material", "translate", "rotate", "rotate_euler", "scale",
-    "track", "motion", "backstop", "initial_velocity",
+    "track", "motion", "backstop", "initial_velocity", "attach",
 )
 STANDARD_GRAVITY = 9.81
 MAX_FPS = 10_000.0  # beyond it a "frame rate" is a typo (and iteration lengths underflow)
@@ -53,6 +53,11 @@ class ClothInstance:
     backstop: BackstopSettings | None
     initial_velocity: np.ndarray
     cook_warnings: tuple[str, ...] = ()
+    # pinned and max-distance particles follow these mesh colliders (clothtool.solver.attach)
+    attach: tuple[str, ...] = ()
+    # a cloth read from a USD stage: its Mesh prim, and per mesh vertex the particle it became
+    prim: str | None = None
+    vertex_particle: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,6 +96,7 @@ class Scene:
     tracks: dict[str, Track]
     output: OutputSettings
     colliders: "SceneColliders | None" = None
+    preroll: int = 0  # frames simulated before start_frame (not written) so the cloth settles
 
     @property
     def frame_count(self) -> int:
@@ -182,6 +188,14 @@ def _scene_table(ctx: _Context, table: dict, frames: tuple[int, int] | None, def
     if not isinstance(name, str) or not name.strip():
         ctx.fail("scene", f"key 'name' must be a non-empty string, got {name!r}; e.g. name = \"shot_010\"")
     return name, fps, int(start), int(end), mpu, up_axis, gravity
+
+
+def preroll_of(ctx: _Context, table: dict) -> int:
+    """``scene.preroll``: whole frames simulated before the start frame (0 = none)."""
+    preroll = table.get("preroll", 0)
+    if isinstance(preroll, bool) or not isinstance(preroll, int) or preroll < 0:
+        ctx.fail("scene", f"key 'preroll' = {preroll!r} must be a whole number of frames, 0 or more")
+    return int(preroll)
 
 
 def _output_table(ctx: _Context, table: dict) -> OutputSettings:
@@ -285,7 +299,15 @@ def _cloth(ctx: _Context, name: str, table: dict, tracks: dict[str, Track], stri
             distance=ctx.number(back, "distance", f"{where}.backstop", default=0.0),
         )
     velocity = ctx.vector(table, "initial_velocity", where, default=[0.0, 0.0, 0.0])
-    return ClothInstance(name, source, fabric, material, placement, track, motion, backstop, velocity, warnings)
+    attach = table.get("attach", [])
+    if isinstance(attach, str):
+        attach = [attach]
+    if not isinstance(attach, list) or not all(isinstance(a, str) for a in attach):
+        ctx.fail(where, f"key 'attach' = {attach!r} must name mesh colliders, e.g. attach = [\"body\"]")
+    if attach and track is not None:
+        ctx.fail(where, "give either 'track' or 'attach': an attached cloth follows its body, not a track")
+    return ClothInstance(name, source, fabric, material, placement, track, motion, backstop, velocity, warnings,
+                         tuple(attach))
 
 
 def _wind(ctx: _Context, table: dict, tracks: dict[str, Track]) -> WindSettings:
@@ -405,4 +427,11 @@ def load_scene(
         from clothtool.scene.colliders import load_colliders
 
         colliders = load_colliders(ctx, tables["collider"], tracks, fps)
-    return Scene(name, path, fps, start, end, mpu, up_axis, gravity, solver, cloths, wind, tracks, output, colliders)
+    for cloth in cloths:
+        kinds = {c.name: c.kind for c in colliders.colliders} if colliders is not None else {}
+        missing = [a for a in cloth.attach if kinds.get(a) != "mesh"]
+        if missing:
+            meshes = [n for n, k in kinds.items() if k == "mesh"]
+            ctx.fail(f"cloth.{cloth.name}", f"key 'attach' names '{missing[0]}', which is no mesh collider; mesh colliders: {', '.join(meshes) or 'none'}")
+    preroll = preroll_of(ctx, tables.get("scene", {}))
+    return Scene(name, path, fps, start, end, mpu, up_axis, gravity, solver, cloths, wind, tracks, output, colliders, preroll)

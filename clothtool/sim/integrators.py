@@ -59,6 +59,7 @@ class Integrator(Protocol):
 # Capabilities a scene can ask for, with the scene key that asks.
 CAPABILITIES = {
     "tracks": "a cloth that follows a track (cloth.NAME.track)",
+    "attachments": "pinned particles that follow an animated body (cloth.NAME.attach)",
     "motion": "painted max-distance motion constraints (the fabric's max distance)",
     "separation": "backstop separation spheres (cloth.NAME.backstop)",
     "continuous_collision": "continuous collision (solver.continuous_collision)",
@@ -120,6 +121,8 @@ def requested_capabilities(scene: "Scene") -> dict[str, str]:
         where = f"cloth.{cloth.name}"
         if cloth.track is not None:
             asked.setdefault("tracks", f"{where}.track")
+        if cloth.attach:
+            asked.setdefault("attachments", f"{where}.attach")
         if cloth.backstop is not None:
             asked.setdefault("separation", f"{where}.backstop")
         if np.isfinite(cloth.fabric.particle_max_distance).any():

@@ -49,6 +49,7 @@ class ClothSolver:
         track: time -> Pose of the cloth's frame (local-space simulation), or None.
         teleport_frames: frames at whose start the frame jumps without carrying velocity.
         initial_velocity: (3,) world velocity of the free particles at the start.
+        attachment: particles that follow a body (clothtool.solver.attach), or None.
     """
 
     def __init__(
@@ -60,8 +61,10 @@ class ClothSolver:
         track: Callable[[float], Pose] | None = None,
         teleport_frames: frozenset[int] = frozenset(),
         initial_velocity=(0.0, 0.0, 0.0),
+        attachment=None,
     ):
         self.model = model
+        self.attachment = attachment
         self.config = config
         self.environment = environment
         self.profiler = profiler
@@ -74,6 +77,8 @@ class ClothSolver:
             material.linear_inertia, material.angular_inertia, material.linear_drag, material.angular_drag
         )
         self.state = ClothState.at_rest(model, np.dtype(config.precision))
+        # motion-constraint centres: the rest pose, moved with the body by an attachment
+        self.motion_centers = model.rest_pos.astype(self.state.cur.dtype)
         self.history: FrameHistory | None = None
         self.prev_h: float | None = None
         self._teleport_path: Callable[[float], Pose] | None = None  # the frame's path during a teleport frame

@@ -1,4 +1,5 @@
-"""Stage: motion constraints (max distance from the rest pose in the cloth's frame)."""
+"""Stage: motion constraints (max distance from the rest pose in the cloth's frame, or from
+the attached position on the body: ``solver.motion_centers``)."""
 
 from __future__ import annotations
 
@@ -22,8 +23,8 @@ class MotionStage(Stage):
     def warm_up(self) -> None:
         model = self.solver.model
         one = np.float32(1.0)
-        constrain_motion(model.rest_pos[:0], model.max_distance[:0], one, one, one, self.solver.state.cur[:0])
+        constrain_motion(self.solver.motion_centers[:0], model.max_distance[:0], one, one, one, self.solver.state.cur[:0])
 
     def run(self, iteration: Iteration) -> None:
         model = self.solver.model
-        constrain_motion(model.rest_pos, model.max_distance, self.scale, self.bias, self.stiffness, self.solver.state.cur)
+        constrain_motion(self.solver.motion_centers, model.max_distance, self.scale, self.bias, self.stiffness, self.solver.state.cur)

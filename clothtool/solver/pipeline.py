@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from clothtool.solver.attach import AttachStage
 from clothtool.solver.collide import CollideStage
 from clothtool.solver.fabric import FabricStage
 from clothtool.solver.integrate import IntegrateStage
@@ -25,14 +26,16 @@ if TYPE_CHECKING:  # pragma: no cover
     from clothtool.solver.cloth import ClothSolver
 
 # The seed's order: integrate, wind, motion, tethers, fabric, separation, collide,
-# self-collide, sleep.
-STAGE_ORDER = ("integrate", "wind", "motion", "tethers", "fabric", "separation", "collide", "self-collide", "sleep")
+# self-collide, sleep; attachments move the body-bound particles right after integration.
+STAGE_ORDER = ("integrate", "attach", "wind", "motion", "tethers", "fabric", "separation", "collide", "self-collide", "sleep")
 
 
 def build_stages(solver: "ClothSolver") -> list[Stage]:
     model = solver.model
     material = model.material
     stages: list[Stage] = [IntegrateStage(solver)]
+    if getattr(solver, "attachment", None) is not None:
+        stages.append(AttachStage(solver))
     if material.drag_coefficient > 0 or material.lift_coefficient > 0:
         stages.append(WindStage(solver))
     if model.has_motion_constraints:
