@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from clothtool import __version__
-from clothtool.errors import UnstableError
+from clothtool.errors import ClothtoolError, UnstableError
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer, partial_path
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
@@ -282,6 +282,7 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
     total = scene.frame_count
     frame_dt = 1.0 / scene.fps
     writer = output if hasattr(output, "write_frame") else open_cache_writer(output, cache_options)
+    frame = scene.start_frame
     try:
         with writer:
             writer.write_header(header)
@@ -313,7 +314,12 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
                 if options.progress:
                     options.progress(done, total)
             writer.commit()
-    except UnstableError as exc:
+    except (ClothtoolError, KeyboardInterrupt) as exc:
+        # What the command line reports: the frame the bake was at and the partial file kept.
+        exc.frame = frame
+        exc.kept = getattr(writer, "kept", None)
+        if not isinstance(exc, UnstableError):
+            raise
         stats.status = "unstable"
         stats.failure = {"frame": stats.per_frame[-1]["frame"] if stats.per_frame else scene.start_frame, "message": str(exc)}
         partial = partial_path(writer.path)

@@ -6,27 +6,89 @@ and nowhere else.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
+import signal
 import sys
+import threading
 
 import click
 
 from clothtool.errors import ClothtoolError
 
 
+class Interrupted(KeyboardInterrupt):
+    """A termination signal (SIGTERM, SIGINT) turned into Ctrl-C's control flow, so that the
+    same cleanup runs: partial file of whole frames, no temporary file, exit code 1."""
+
+    def __init__(self, signal_name: str):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+
+_HANDLED_SIGNALS = ("SIGTERM", "SIGINT")
+
+
+@contextlib.contextmanager
+def signals_interrupt():
+    """While the command runs, SIGTERM (what timeout, schedulers and systemd send) and SIGINT
+    raise Interrupted. Signals after the first are ignored so the cleanup it starts can finish."""
+    if threading.current_thread() is not threading.main_thread():  # only the main thread may set handlers
+        yield
+        return
+    received = []
+
+    def handler(number, frame):
+        if received:
+            return
+        received.append(number)
+        raise Interrupted(signal.Signals(number).name)
+
+    previous = {}
+    for name in _HANDLED_SIGNALS:
+        number = getattr(signal, name, None)
+        if number is not None:
+            previous[number] = signal.signal(number, handler)
+    try:
+        yield
+    finally:
+        for number, old in previous.items():
+            signal.signal(number, old)
+
+
+def kept_note(exc: BaseException) -> str:
+    """"; kept N frames in PATH" when the failed run kept a partial file, else ""."""
+    kept = getattr(exc, "kept", None)
+    if not kept:
+        return ""
+    path, frames = kept
+    return f"; kept {frames} frame{'s' if frames != 1 else ''} in {path}"
+
+
+def interrupted_message(exc: KeyboardInterrupt) -> str:
+    """One line for an interrupted command, e.g. ``interrupted (SIGTERM) at frame 37; kept 36
+    frames in out/x.partial.h5``."""
+    name = exc.signal_name if isinstance(exc, Interrupted) else "SIGINT"
+    frame = getattr(exc, "frame", None)
+    where = f" at frame {frame}" if frame is not None else ""
+    return f"interrupted ({name}){where}" + (kept_note(exc) or "; no output written")
+
+
 def handle_errors(func):
-    """Turn ClothtoolError (and unexpected failures) into one line and exit code 1."""
+    """Turn ClothtoolError (and unexpected failures) into one line and exit code 1; a
+    termination signal (SIGTERM, SIGINT) ends the command the same way."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
-            return func(*args, **kwargs)
+            with signals_interrupt():
+                return func(*args, **kwargs)
         except ClothtoolError as exc:
-            raise click.ClickException(str(exc)) from None
-        except KeyboardInterrupt:
-            raise click.Abort() from None
+            raise click.ClickException(str(exc) + kept_note(exc)) from None
+        except KeyboardInterrupt as exc:
+            raise click.ClickException(interrupted_message(exc)) from None
         except click.exceptions.ClickException:
             raise
         except click.exceptions.Exit:

@@ -16,35 +16,40 @@ import numpy as np
 from clothtool import __version__
 from clothtool.errors import FormatError
 from clothtool.fabric import ARRAY_FIELDS, FORMAT_NAME, FORMAT_VERSION, Fabric
-from clothtool.io.atomic import atomic_output
+from clothtool.io.atomic import atomic_output, write_error
+from clothtool.io.hdf5_files import create_hdf5
 
 # Arrays at least this many bytes are chunked and compressed (shuffle + gzip).
 _COMPRESS_ABOVE_BYTES = 1 << 16
-HDF5_LIBVER = ("earliest", "v110")
 
 
 def write_fabric(fabric: Fabric, path: str | os.PathLike) -> None:
     """Validate ``fabric`` and write it to ``path`` atomically."""
-    import h5py
-
     fabric.validate()
-    with atomic_output(path) as tmp:
-        with h5py.File(tmp, "w", libver=HDF5_LIBVER) as f:
-            f.attrs["format"] = FORMAT_NAME
-            f.attrs["format_version"] = FORMAT_VERSION
-            f.attrs["generator"] = f"clothtool {__version__}"
-            f.attrs["particle_count"] = fabric.particle_count
-            f.attrs["meters_per_unit"] = float(fabric.meters_per_unit)
-            f.attrs["up_axis"] = fabric.up_axis
-            f.attrs["hang_direction"] = np.asarray(fabric.hang_direction, np.float32)
-            f.attrs["source_sha256"] = fabric.source_sha256
-            f.attrs["cook_options"] = fabric.cook_options
-            for name, _, _ in ARRAY_FIELDS:
-                data = getattr(fabric, name)
-                options = {}
-                if data.nbytes >= _COMPRESS_ABOVE_BYTES:
-                    options = dict(compression="gzip", compression_opts=4, shuffle=True)
-                f.create_dataset(name, data=data, **options)
+    with atomic_output(path, "writing the fabric") as tmp:
+        try:
+            _write_fabric_file(fabric, tmp)
+        except RuntimeError as exc:  # h5py raises RuntimeError when closing (flushing) fails
+            raise write_error(path, exc, "writing the fabric") from None
+
+
+def _write_fabric_file(fabric: Fabric, tmp: Path) -> None:
+    with create_hdf5(tmp) as f:
+        f.attrs["format"] = FORMAT_NAME
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["generator"] = f"clothtool {__version__}"
+        f.attrs["particle_count"] = fabric.particle_count
+        f.attrs["meters_per_unit"] = float(fabric.meters_per_unit)
+        f.attrs["up_axis"] = fabric.up_axis
+        f.attrs["hang_direction"] = np.asarray(fabric.hang_direction, np.float32)
+        f.attrs["source_sha256"] = fabric.source_sha256
+        f.attrs["cook_options"] = fabric.cook_options
+        for name, _, _ in ARRAY_FIELDS:
+            data = getattr(fabric, name)
+            options = {}
+            if data.nbytes >= _COMPRESS_ABOVE_BYTES:
+                options = dict(compression="gzip", compression_opts=4, shuffle=True)
+            f.create_dataset(name, data=data, **options)
 
 
 def _fail(path, message: str):

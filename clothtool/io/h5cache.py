@@ -38,8 +38,7 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
-
-HDF5_LIBVER = ("earliest", "v110")
+from clothtool.io.hdf5_files import create_hdf5
 
 
 # ---------------------------------------------------------------------------------------------
@@ -67,15 +66,10 @@ class H5CacheWriter(StreamedCacheWriter):
         self._last_extents: list[np.ndarray] = []  # per cloth, of the last frame flushed
 
     def write_header(self, header: CacheHeader) -> None:
-        import h5py
-
         self._check_new_header(header)
         self._header = header
         try:
-            # No chunk cache: each chunk is written (and a full disk reported) by the call that
-            # writes it. With a cache, HDF5 writes chunks when a dataset handle is freed and
-            # h5py can only print the failure, so a full disk went unnoticed.
-            self._file = f = h5py.File(self._tmp, "w", libver=HDF5_LIBVER, rdcc_nbytes=0)
+            self._file = f = create_hdf5(self._tmp)  # a full disk raises at the write that meets it
         except OSError as exc:
             raise write_error(self.path, exc, "creating the HDF5 file") from None
         try:
