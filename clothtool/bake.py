@@ -316,7 +316,8 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
             writer.commit()
     except (ClothtoolError, KeyboardInterrupt) as exc:
         # What the command line reports: the frame the bake was at and the partial file kept.
-        exc.frame = frame
+        written = getattr(writer, "frames_written", None)
+        exc.frame = frame if written is None else min(scene.start_frame + written, scene.end_frame)
         exc.kept = getattr(writer, "kept", None)
         if not isinstance(exc, UnstableError):
             raise

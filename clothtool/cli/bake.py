@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from clothtool.cli.common import emit_json, handle_errors, stderr_is_terminal, warn
+from clothtool.cli.common import emit_json, handle_errors, raise_if_interrupted, stderr_is_terminal, warn
 
 
 def parse_frames(ctx, param, value):
@@ -23,9 +23,10 @@ def parse_frames(ctx, param, value):
 
 @contextlib.contextmanager
 def progress_bar(enabled: bool):
-    """A rich progress bar on stderr when it is a terminal; yields a progress callback."""
+    """A rich progress bar on stderr when it is a terminal; yields a progress callback, which
+    also ends the bake when a termination signal came (see ``raise_if_interrupted``)."""
     if not enabled:
-        yield None
+        yield lambda done, total: raise_if_interrupted()
         return
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeRemainingColumn
@@ -37,6 +38,7 @@ def progress_bar(enabled: bool):
         task = progress.add_task("baking", total=None)
 
         def update(done: int, total: int) -> None:
+            raise_if_interrupted()
             progress.update(task, completed=done, total=total)
 
         yield update

@@ -29,6 +29,7 @@ class Interrupted(KeyboardInterrupt):
 
 
 _HANDLED_SIGNALS = ("SIGTERM", "SIGINT")
+_received: list[str] = []  # signals received while the current command runs
 
 
 @contextlib.contextmanager
@@ -38,24 +39,41 @@ def signals_interrupt():
     if threading.current_thread() is not threading.main_thread():  # only the main thread may set handlers
         yield
         return
-    received = []
 
     def handler(number, frame):
-        if received:
+        if _received:
             return
-        received.append(number)
-        raise Interrupted(signal.Signals(number).name)
+        _received.append(signal.Signals(number).name)
+        raise Interrupted(_received[0])
+
+    print_unraisable = sys.unraisablehook
+
+    def unraisable(info):
+        # The signal landed in a destructor: say nothing, raise_if_interrupted raises it again.
+        if not isinstance(info.exc_value, Interrupted):
+            print_unraisable(info)
 
     previous = {}
     for name in _HANDLED_SIGNALS:
         number = getattr(signal, name, None)
         if number is not None:
             previous[number] = signal.signal(number, handler)
+    sys.unraisablehook = unraisable
     try:
         yield
     finally:
         for number, old in previous.items():
             signal.signal(number, old)
+        sys.unraisablehook = print_unraisable
+        _received.clear()
+
+
+def raise_if_interrupted() -> None:
+    """Raise Interrupted if a signal came. The handler raises at once, but where it lands in a
+    destructor or a weakref callback Python only prints the exception: checked once per frame,
+    such a signal still ends the bake a frame later."""
+    if _received:
+        raise Interrupted(_received[0])
 
 
 def kept_note(exc: BaseException) -> str:
