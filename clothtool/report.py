@@ -65,7 +65,7 @@ def write_report(report: dict, path: str | os.PathLike) -> None:
     """Write ``report`` as JSON or HTML (by suffix), atomically."""
     path = check_report_path(path)
     text = json.dumps(report, indent=2, sort_keys=True) if path.suffix.lower() == ".json" else render_html(report)
-    with atomic_output(path) as tmp:
+    with atomic_output(path, "writing the report") as tmp:
         tmp.write_text(text + "\n", encoding="utf-8")
 
 
