@@ -211,18 +211,22 @@ class DiskWithRoom(io.FileIO):
         return super().write(data)
 
 
-def disk_with_room(room: int):
-    """A stand-in for ``create_hdf5`` writing through DiskWithRoom (h5py's file-object driver)."""
-    import h5py
+def give_hdf5_files_room(monkeypatch, room: int) -> None:
+    """Make every HDF5 file created from now on a DiskWithRoom, keeping the file access
+    properties clothtool asks for (h5py's file-object driver under ``h5f.create``)."""
+    from h5py import h5f, h5fd
 
-    def create(path):
-        return h5py.File(DiskWithRoom(path, room), "w", libver=("earliest", "v110"), rdcc_nbytes=0)
+    create = h5f.create
 
-    return create
+    def create_with_room(name, flags, fapl=None, fcpl=None):
+        fapl.set_fileobj_driver(h5fd.fileobj_driver, DiskWithRoom(os.fsdecode(name), room))
+        return create(name, flags, fapl=fapl, fcpl=fcpl)
+
+    monkeypatch.setattr(h5f, "create", create_with_room)
 
 
 def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, monkeypatch):
-    monkeypatch.setattr("clothtool.io.h5cache.create_hdf5", disk_with_room(150_000))
+    give_hdf5_files_room(monkeypatch, 150_000)
     scene = scene_dir / "scene200.toml"
     with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while writing frame (\d+) \(No space left on device\)") as failure:
         bake(load_scene(scene), out_dir / "x.h5")
@@ -233,7 +237,7 @@ def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, monkeypatc
 
 
 def test_injected_enospc_while_writing_the_hdf5_header_keeps_nothing(scene_dir, out_dir, monkeypatch):
-    monkeypatch.setattr("clothtool.io.h5cache.create_hdf5", disk_with_room(2_000))
+    give_hdf5_files_room(monkeypatch, 2_000)
     with pytest.raises(ClothtoolError, match=r"disk full while writing the header"):
         bake(load_scene(scene_dir / "scene200.toml"), out_dir / "x.h5")
     assert leftovers(out_dir) == []
@@ -258,12 +262,11 @@ def test_a_failed_usd_save_is_never_retried_and_nothing_is_kept(scene_dir, out_d
 
 
 def test_injected_enospc_in_the_fabric_writer_and_cook(out_dir, monkeypatch, tmp_path):
-    monkeypatch.setattr("clothtool.io.fabric_file.create_hdf5", disk_with_room(20_000))
     fabric = cook_fabric(grid(32, 32, 0.02, plane="XZ"), CookOptions()).fabric
+    give_hdf5_files_room(monkeypatch, 20_000)
     with pytest.raises(ClothtoolError, match=r"sheet\.fabric\.h5: disk full while writing the fabric"):
         write_fabric(fabric, out_dir / "sheet.fabric.h5")
     mesh = write_grid_obj(tmp_path / "sheet.obj", 8)
-    monkeypatch.setattr("clothtool.io.fabric_file.create_hdf5", disk_with_room(1_000))
     result = CliRunner().invoke(main, ["cook", str(mesh), "-o", str(out_dir / "cooked.fabric.h5")])
     assert result.exit_code == 1
     assert "disk full while writing the fabric" in result.output and "Traceback" not in result.output
