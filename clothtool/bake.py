@@ -17,7 +17,7 @@ import numpy as np
 
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, UnstableError
-from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer, partial_path
+from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
 from clothtool.solver.cloth import ClothSolver
@@ -323,8 +323,7 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
             raise
         stats.status = "unstable"
         stats.failure = {"frame": stats.per_frame[-1]["frame"] if stats.per_frame else scene.start_frame, "message": str(exc)}
-        partial = partial_path(writer.path)
-        stats.partial_output = partial.name if partial.exists() else None
+        stats.partial_output = exc.kept[0].name if exc.kept else None
         _finish(stats, profiler, wall0, cpu0)
         exc.stats = stats
         raise

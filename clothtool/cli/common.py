@@ -63,7 +63,7 @@ def signals_interrupt():
         yield
     finally:
         for number, old in previous.items():
-            signal.signal(number, old)
+            signal.signal(number, signal.SIG_DFL if old is None else old)  # None: set outside Python
         sys.unraisablehook = print_unraisable
         _received.clear()
 

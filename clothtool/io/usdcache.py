@@ -10,7 +10,6 @@ frame count). The reader has the API of ``clothtool.io.h5cache.CacheReader``.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
@@ -233,8 +232,7 @@ class UsdCacheWriter(StreamedCacheWriter):
 
     def _release(self, keep: bool) -> bool:
         # Drop every handle before the rename: the layer registry must forget the temporary name.
-        layer = self._layer
-        if layer is None or self._failed:
+        if self._layer is None or self._failed:
             self._layer = None
             return False
         try:

@@ -217,9 +217,11 @@ def give_hdf5_files_room(monkeypatch, room: int) -> None:
     from h5py import h5f, h5fd
 
     create = h5f.create
+    disks = []  # the driver does not own its file object: keep each alive while HDF5 uses it
 
     def create_with_room(name, flags, fapl=None, fcpl=None):
-        fapl.set_fileobj_driver(h5fd.fileobj_driver, DiskWithRoom(os.fsdecode(name), room))
+        disks.append(DiskWithRoom(os.fsdecode(name), room))
+        fapl.set_fileobj_driver(h5fd.fileobj_driver, disks[-1])
         return create(name, flags, fapl=fapl, fcpl=fcpl)
 
     monkeypatch.setattr(h5f, "create", create_with_room)
