@@ -64,8 +64,8 @@ def progress_bar(enabled: bool):
 def bake(scene, output, dry_run, overrides, frames, profile, report_path, as_json, compression, save_every, strict, force, progress):
     """Bake SCENE (a scene .toml) into a cache.
 
-    Exit code 1 on bad input or an unstable bake (the frames written so far are kept in
-    NAME.partial.SUFFIX).
+    Exit code 1 on bad input, an unstable bake, a failed write (a full disk) or SIGTERM /
+    SIGINT; the whole frames written so far are then kept in NAME.partial.SUFFIX.
 
     \b
     Examples:

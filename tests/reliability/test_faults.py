@@ -321,6 +321,23 @@ def test_a_signal_mid_bake_keeps_whole_frames(scene_dir, out_dir, signal_name, n
     assert_whole_frames(partial, scene_dir / f"scene{LONG}.toml", kept)
 
 
+def test_an_interrupted_cook_leaves_nothing(out_dir, tmp_path, monkeypatch):
+    from clothtool.cli.common import Interrupted
+    from clothtool.io import fabric_file
+
+    write_arrays = fabric_file._write_fabric_file
+
+    def terminated_half_way(fabric, f):
+        write_arrays(fabric, f)
+        raise Interrupted("SIGTERM")  # as the signal handler raises it
+
+    monkeypatch.setattr(fabric_file, "_write_fabric_file", terminated_half_way)
+    result = CliRunner().invoke(main, ["cook", str(write_grid_obj(tmp_path / "sheet.obj", 8)), "-o", str(out_dir / "s.fabric.h5")])
+    assert result.exit_code == 1
+    assert result.output == "Error: interrupted (SIGTERM); no output written\n"
+    assert leftovers(out_dir) == []
+
+
 def test_the_next_run_removes_what_kill_9_left(scene_dir, out_dir):
     process, temporary = start_long_bake(scene_dir, out_dir / "x.h5")
     process.kill()
