@@ -24,7 +24,7 @@ from clothtool.errors import ClothtoolError
 
 _MARK = "clothtool-tmp"
 _TEMPORARY = re.compile(rf"\.(?P<target>.+)\.{_MARK}\.(?P<pid>\d+)\.(?P<start>\d+)\.(?P<space>[0-9a-f]{{8}})(?:\.[A-Za-z0-9]+)?\Z")
-# Before process-tagged names, clothtool wrote ".NAME.tmp-PID[.SUFFIX]": swept while that pid is unused.
+# Before process-tagged names, clothtool wrote ".NAME.tmp-PID[.SUFFIX]": removed once that pid is unused.
 _LEGACY_TEMPORARY = re.compile(
     r"\.(?P<target>.+\.(?:h5|hdf5|usd|usda|usdc|json|html|csv|svg|png))\.tmp-(?P<pid>\d+)(?:\.[A-Za-z0-9]+)?\Z"
 )
@@ -83,6 +83,7 @@ def _pid_space() -> str:
     return hashlib.sha256("|".join(parts).encode()).hexdigest()[:8]
 
 
+@functools.lru_cache(maxsize=None)
 def _has_proc() -> bool:
     return Path(f"/proc/{os.getpid()}/stat").is_file()
 
