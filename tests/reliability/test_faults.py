@@ -211,24 +211,30 @@ class DiskWithRoom(io.FileIO):
         return super().write(data)
 
 
-def give_hdf5_files_room(monkeypatch, room: int) -> None:
-    """Make every HDF5 file created from now on a DiskWithRoom, keeping the file access
-    properties clothtool asks for (h5py's file-object driver under ``h5f.create``)."""
+@pytest.fixture
+def give_hdf5_files_room(monkeypatch):
+    """``give(room)``: every HDF5 file created from then on is a DiskWithRoom, with the file
+    access properties clothtool asks for (h5py's file-object driver under ``h5f.create``)."""
     from h5py import h5f, h5fd
 
     create = h5f.create
     disks = []  # the driver does not own its file object: keep each alive while HDF5 uses it
 
-    def create_with_room(name, flags, fapl=None, fcpl=None):
-        disks.append(DiskWithRoom(os.fsdecode(name), room))
-        fapl.set_fileobj_driver(h5fd.fileobj_driver, disks[-1])
-        return create(name, flags, fapl=fapl, fcpl=fcpl)
+    def give(room: int) -> None:
+        def create_with_room(name, flags, fapl=None, fcpl=None):
+            disks.append(DiskWithRoom(os.fsdecode(name), room))
+            fapl.set_fileobj_driver(h5fd.fileobj_driver, disks[-1])
+            return create(name, flags, fapl=fapl, fcpl=fcpl)
 
-    monkeypatch.setattr(h5f, "create", create_with_room)
+        monkeypatch.setattr(h5f, "create", create_with_room)
+
+    yield give
+    for disk in disks:
+        disk.close()
 
 
-def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, monkeypatch):
-    give_hdf5_files_room(monkeypatch, 150_000)
+def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, give_hdf5_files_room):
+    give_hdf5_files_room(150_000)
     scene = scene_dir / "scene200.toml"
     with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while writing frame (\d+) \(No space left on device\)") as failure:
         bake(load_scene(scene), out_dir / "x.h5")
@@ -238,8 +244,8 @@ def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, monkeypatc
     assert_whole_frames(out_dir / "x.partial.h5", scene, frame - 1)
 
 
-def test_injected_enospc_while_writing_the_hdf5_header_keeps_nothing(scene_dir, out_dir, monkeypatch):
-    give_hdf5_files_room(monkeypatch, 2_000)
+def test_injected_enospc_while_writing_the_hdf5_header_keeps_nothing(scene_dir, out_dir, give_hdf5_files_room):
+    give_hdf5_files_room(2_000)
     with pytest.raises(ClothtoolError, match=r"disk full while writing the header"):
         bake(load_scene(scene_dir / "scene200.toml"), out_dir / "x.h5")
     assert leftovers(out_dir) == []
@@ -263,9 +269,9 @@ def test_a_failed_usd_save_is_never_retried_and_nothing_is_kept(scene_dir, out_d
     assert leftovers(out_dir) == []
 
 
-def test_injected_enospc_in_the_fabric_writer_and_cook(out_dir, monkeypatch, tmp_path):
+def test_injected_enospc_in_the_fabric_writer_and_cook(out_dir, give_hdf5_files_room, tmp_path):
     fabric = cook_fabric(grid(32, 32, 0.02, plane="XZ"), CookOptions()).fabric
-    give_hdf5_files_room(monkeypatch, 20_000)
+    give_hdf5_files_room(20_000)
     with pytest.raises(ClothtoolError, match=r"sheet\.fabric\.h5: disk full while writing the fabric"):
         write_fabric(fabric, out_dir / "sheet.fabric.h5")
     mesh = write_grid_obj(tmp_path / "sheet.obj", 8)
