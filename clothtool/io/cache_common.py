@@ -210,16 +210,22 @@ class StreamedCacheWriter(abc.ABC):
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if self._committed:
-            return
+        if not self._committed:
+            self._abandon()
+
+    def _abandon(self, holds_frames: bool | None = None) -> None:
+        """Keep the whole frames written so far under the partial name, or nothing; never
+        raises (the error that ended the bake is the one to report). ``holds_frames``: what
+        ``_release`` said when the file is already released."""
         try:
-            holds_frames = self._release(keep=self.frames_written > 0)
-            if holds_frames and self.frames_written > 0:
+            if holds_frames is None:
+                holds_frames = self._release(keep=self.frames_written > 0)
+            if holds_frames and self.frames_written > 0 and self.kept is None:
                 partial = partial_path(self.path)
                 os.replace(self._tmp, partial)
                 self.kept = (partial, self.frames_written)
         except (ClothtoolError, OSError):
-            pass  # the error that ended the bake is the one to report; nothing is kept
+            pass
         finally:
             with contextlib.suppress(OSError):
                 self._tmp.unlink()
@@ -255,7 +261,9 @@ class StreamedCacheWriter(abc.ABC):
             raise ClothtoolError(f"{self.path}: commit called before write_header")
         if self._failed:
             raise self._error
-        if not self._release(keep=True):
+        holds_frames = self._release(keep=True)
+        if self._failed or not holds_frames:  # the last save or flush failed
+            self._abandon(holds_frames)
             raise self._error or ClothtoolError(f"{self.path}: the cache could not be completed; nothing was written under its name")
         try:
             os.replace(self._tmp, self.path)

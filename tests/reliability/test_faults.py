@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from clothtool.bake import bake
+from clothtool.bake import BakeOptions, bake
 from clothtool.cli import main
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.errors import ClothtoolError
@@ -87,11 +87,11 @@ def reference_frames(scene: Path, last: int) -> dict[int, tuple[np.ndarray, ...]
     return writer.frames
 
 
-def assert_whole_frames(partial: Path, scene: Path, frames: int) -> None:
+def assert_whole_frames(partial: Path, scene: Path, frames: int, complete: bool = False) -> None:
     """``partial`` is readable, holds frames 1..frames, and each is the frame the bake made."""
     with read_cache(partial) as cache:
         assert cache.frames == list(range(1, frames + 1))
-        assert not cache.summary()["complete"]
+        assert cache.summary()["complete"] == complete
         expected = reference_frames(scene, frames)
         for frame in cache.frames:
             np.testing.assert_array_equal(cache.points(CLOTH, frame), expected[frame][0].astype(np.float32), err_msg=f"frame {frame}")
@@ -213,20 +213,22 @@ class DiskWithRoom(io.FileIO):
 
 @pytest.fixture
 def give_hdf5_files_room(monkeypatch):
-    """``give(room)``: every HDF5 file created from then on is a DiskWithRoom, with the file
-    access properties clothtool asks for (h5py's file-object driver under ``h5f.create``)."""
+    """``give(room) -> disks``: every HDF5 file created from then on is a DiskWithRoom (listed
+    in ``disks``), with the file access properties clothtool asks for (h5py's file-object
+    driver under ``h5f.create``)."""
     from h5py import h5f, h5fd
 
     create = h5f.create
     disks = []  # the driver does not own its file object: keep each alive while HDF5 uses it
 
-    def give(room: int) -> None:
+    def give(room: int) -> list[DiskWithRoom]:
         def create_with_room(name, flags, fapl=None, fcpl=None):
             disks.append(DiskWithRoom(os.fsdecode(name), room))
             fapl.set_fileobj_driver(h5fd.fileobj_driver, disks[-1])
             return create(name, flags, fapl=fapl, fcpl=fcpl)
 
         monkeypatch.setattr(h5f, "create", create_with_room)
+        return disks
 
     yield give
     for disk in disks:
@@ -249,6 +251,23 @@ def test_injected_enospc_while_writing_the_hdf5_header_keeps_nothing(scene_dir, 
     with pytest.raises(ClothtoolError, match=r"disk full while writing the header"):
         bake(load_scene(scene_dir / "scene200.toml"), out_dir / "x.h5")
     assert leftovers(out_dir) == []
+
+
+def test_a_disk_full_at_the_final_flush_commits_nothing(scene_dir, out_dir, give_hdf5_files_room):
+    disks = give_hdf5_files_room(10**9)
+
+    def fill_the_disk_after_the_last_frame(done: int, total: int) -> None:
+        if done == total:
+            disks[0].room = 0
+
+    options = BakeOptions(progress=fill_the_disk_after_the_last_frame)
+    scene = scene_dir / "scene200.toml"
+    with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while closing the file") as failure:
+        bake(load_scene(scene, frames=(1, 6)), out_dir / "x.h5", options)
+    # Every frame was flushed before the disk filled: they read back, so they are kept.
+    assert failure.value.kept == (out_dir / "x.partial.h5", 6)
+    assert leftovers(out_dir) == ["x.partial.h5"]
+    assert_whole_frames(out_dir / "x.partial.h5", scene, 6, complete=True)
 
 
 def test_a_failed_usd_save_is_never_retried_and_nothing_is_kept(scene_dir, out_dir, monkeypatch):
