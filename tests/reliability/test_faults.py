@@ -10,7 +10,6 @@ the final name, no temporary file left, and a partial file only when it holds wh
 from __future__ import annotations
 
 import errno
-import io
 import os
 import re
 import signal
@@ -199,45 +198,65 @@ def test_disk_full_during_cook_and_report(scene_dir, small_tmpfs, tmp_path):
 # An injected ENOSPC in the writers: runs everywhere.
 
 
-class DiskWithRoom(io.FileIO):
-    """A file whose writes fail with ENOSPC once it would grow beyond ``room`` bytes."""
+class SmallDisk:
+    """The room left on a disk that every h5py write draws from. A write that does not fit
+    fails, and every later flush too, with the errors h5py gives on a full disk."""
 
-    def __init__(self, path, room: int):
-        super().__init__(path, "w+")
+    def __init__(self, room: int, flushes: int | None = None):
         self.room = room
+        self.flushes = flushes  # flushes that succeed before one fails (None: as room allows)
 
-    def write(self, data) -> int:
-        if self.tell() + len(memoryview(data).cast("B")) > self.room:
-            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-        return super().write(data)
+    def take(self, nbytes: int) -> None:
+        if nbytes > self.room:
+            self.room = 0
+            raise OSError(errno.ENOSPC, "Can't synchronously write data (file write failed: "
+                                        "errno = 28, error message = 'No space left on device')")
+        self.room -= nbytes
+
+    def check_flush(self) -> None:
+        if self.flushes is not None:
+            self.flushes -= 1
+            if self.flushes < 0:
+                self.room = 0
+        if self.room == 0:
+            raise RuntimeError("Unable to synchronously flush file (file write failed: "
+                               "errno = 28, error message = 'No space left on device')")
 
 
 @pytest.fixture
-def give_hdf5_files_room(monkeypatch):
-    """``give(room) -> disks``: every HDF5 file created from then on is a DiskWithRoom (listed
-    in ``disks``), with the file access properties clothtool asks for (h5py's file-object
-    driver under ``h5f.create``)."""
-    from h5py import h5f, h5fd
+def small_disk(monkeypatch):
+    """``small_disk(room, flushes=None) -> SmallDisk``: from then on h5py's dataset writes, dataset creation
+    with data, and file flushes draw on ``room`` bytes (the writers' own calls, unchanged).
+    Where a tmpfs can be mounted, the tests above fill a real disk."""
+    import h5py
 
-    create = h5f.create
-    disks = []  # the driver does not own its file object: keep each alive while HDF5 uses it
+    def give(room: int, flushes: int | None = None) -> SmallDisk:
+        disk = SmallDisk(room, flushes)
+        setitem, create_dataset, flush = h5py.Dataset.__setitem__, h5py.Group.create_dataset, h5py.File.flush
 
-    def give(room: int) -> list[DiskWithRoom]:
-        def create_with_room(name, flags, fapl=None, fcpl=None):
-            disks.append(DiskWithRoom(os.fsdecode(name), room))
-            fapl.set_fileobj_driver(h5fd.fileobj_driver, disks[-1])
-            return create(name, flags, fapl=fapl, fcpl=fcpl)
+        def write(dataset, key, value):
+            disk.take(np.asarray(value).nbytes)
+            setitem(dataset, key, value)
 
-        monkeypatch.setattr(h5f, "create", create_with_room)
-        return disks
+        def create(group, name, shape=None, dtype=None, data=None, **options):
+            disk.take(0 if data is None else np.asarray(data).nbytes)
+            return create_dataset(group, name, shape, dtype, data, **options)
 
-    yield give
-    for disk in disks:
-        disk.close()
+        def flush_file(file):
+            disk.check_flush()
+            flush(file)
+
+        monkeypatch.setattr(h5py.Dataset, "__setitem__", write)
+        monkeypatch.setattr(h5py.Group, "create_dataset", create)
+        monkeypatch.setattr(h5py.File, "flush", flush_file)
+        return disk
+
+    return give
 
 
-def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, give_hdf5_files_room):
-    give_hdf5_files_room(150_000)
+@pytest.mark.parametrize("room, flushes", [(150_000, None), (10**9, 20)], ids=["a-write-fails", "a-flush-fails"])
+def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, small_disk, room, flushes):
+    small_disk(room, flushes)
     scene = scene_dir / "scene200.toml"
     with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while writing frame (\d+) \(No space left on device\)") as failure:
         bake(load_scene(scene), out_dir / "x.h5")
@@ -247,19 +266,19 @@ def test_injected_enospc_in_the_hdf5_cache_writer(scene_dir, out_dir, give_hdf5_
     assert_whole_frames(out_dir / "x.partial.h5", scene, frame - 1)
 
 
-def test_injected_enospc_while_writing_the_hdf5_header_keeps_nothing(scene_dir, out_dir, give_hdf5_files_room):
-    give_hdf5_files_room(2_000)
+def test_injected_enospc_while_writing_the_hdf5_header_keeps_nothing(scene_dir, out_dir, small_disk):
+    small_disk(2_000)
     with pytest.raises(ClothtoolError, match=r"disk full while writing the header"):
         bake(load_scene(scene_dir / "scene200.toml"), out_dir / "x.h5")
     assert leftovers(out_dir) == []
 
 
-def test_a_disk_full_at_the_final_flush_commits_nothing(scene_dir, out_dir, give_hdf5_files_room):
-    disks = give_hdf5_files_room(10**9)
+def test_a_disk_full_at_the_final_flush_commits_nothing(scene_dir, out_dir, small_disk):
+    disk = small_disk(10**9)
 
     def fill_the_disk_after_the_last_frame(done: int, total: int) -> None:
         if done == total:
-            disks[0].room = 0
+            disk.room = 0
 
     options = BakeOptions(progress=fill_the_disk_after_the_last_frame)
     scene = scene_dir / "scene200.toml"
@@ -289,9 +308,9 @@ def test_a_failed_usd_save_is_never_retried_and_nothing_is_kept(scene_dir, out_d
     assert leftovers(out_dir) == []
 
 
-def test_injected_enospc_in_the_fabric_writer_and_cook(out_dir, give_hdf5_files_room, tmp_path):
+def test_injected_enospc_in_the_fabric_writer_and_cook(out_dir, small_disk, tmp_path):
     fabric = cook_fabric(grid(32, 32, 0.02, plane="XZ"), CookOptions()).fabric
-    give_hdf5_files_room(20_000)
+    small_disk(20_000)
     with pytest.raises(ClothtoolError, match=r"sheet\.fabric\.h5: disk full while writing the fabric"):
         write_fabric(fabric, out_dir / "sheet.fabric.h5")
     mesh = write_grid_obj(tmp_path / "sheet.obj", 8)
