@@ -16,8 +16,8 @@ from typing import Callable
 import numpy as np
 
 from clothtool import __version__
-from clothtool.errors import UnstableError
-from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer, partial_path
+from clothtool.errors import ClothtoolError, UnstableError
+from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
 from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
@@ -320,6 +320,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     total = scene.frame_count
     frame_dt = 1.0 / scene.fps
     writer = output if hasattr(output, "write_frame") else open_cache_writer(output, cache_options)
+    frame = scene.start_frame
     try:
         with writer:
             writer.write_header(header)
@@ -350,11 +351,16 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                 if options.progress:
                     options.progress(done, total)
             writer.commit()
-    except UnstableError as exc:
+    except (ClothtoolError, KeyboardInterrupt) as exc:
+        # What the command line reports: the frame the bake was at and the partial file kept.
+        written = getattr(writer, "frames_written", None)
+        exc.frame = frame if written is None else min(scene.start_frame + written, scene.end_frame)
+        exc.kept = getattr(writer, "kept", None)
+        if not isinstance(exc, UnstableError):
+            raise
         stats.status = "unstable"
         stats.failure = {"frame": stats.per_frame[-1]["frame"] if stats.per_frame else scene.start_frame, "message": str(exc)}
-        partial = partial_path(writer.path)
-        stats.partial_output = partial.name if partial.exists() else None
+        stats.partial_output = exc.kept[0].name if exc.kept else None
         _finish(stats, profiler, wall0, cpu0)
         exc.stats = stats
         raise

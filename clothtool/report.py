@@ -68,5 +68,5 @@ def write_report(report: dict, path: str | os.PathLike) -> None:
         from clothtool.report_html import render_html  # matplotlib loads only for HTML
 
         text = render_html(report)
-    with atomic_output(path) as tmp:
+    with atomic_output(path, "writing the report") as tmp:
         tmp.write_text(text + "\n", encoding="utf-8")

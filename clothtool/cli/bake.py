@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 
 from clothtool.cli.batch import batch_options, is_batch, run_bake_batch, wedge_options
-from clothtool.cli.common import emit_json, handle_errors, warn
+from clothtool.cli.common import emit_json, handle_errors, raise_if_interrupted, warn
 from clothtool.cli.progress import bake_progress
 
 
@@ -71,8 +71,8 @@ def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_js
 
     Several scenes or globs, --wedge, or an output template bake as a batch (see --jobs).
 
-    Exit code 1 on bad input or an unstable bake (the frames written so far are kept in
-    NAME.partial.SUFFIX).
+    Exit code 1 on bad input, an unstable bake, a failed write (a full disk) or SIGTERM /
+    SIGINT; the whole frames written so far are then kept in NAME.partial.SUFFIX.
 
     \b
     Examples:
@@ -112,7 +112,13 @@ def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_js
         for line in cloth.cook_warnings:
             warn(line)
     failed = None
-    with bake_progress(progress, f"bake {scene.name}") as update:
+    with bake_progress(progress, f"bake {scene.name}") as show:
+
+        def update(done: int, total: int) -> None:
+            raise_if_interrupted()  # once per frame: a signal that landed in a destructor still ends the bake
+            if show is not None:
+                show(done, total)
+
         try:
             stats = run_bake(loaded, cache_output(loaded, output, standalone, save_every), BakeOptions(percentiles=True, compression=compression, save_every=save_every, progress=update))
         except UnstableError as exc:

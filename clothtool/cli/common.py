@@ -6,10 +6,13 @@ and nowhere else.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import os
+import signal
 import sys
+import threading
 
 import click
 
@@ -58,20 +61,96 @@ class OneLineErrorGroup(click.Group):
             raise CommandError(f"{exc.format_message()} (see '{where} --help')", exit_code=2) from None
 
 
+class Interrupted(KeyboardInterrupt):
+    """A termination signal (SIGTERM, SIGINT) turned into Ctrl-C's control flow, so that the
+    same cleanup runs: partial file of whole frames, no temporary file, exit code 1."""
+
+    def __init__(self, signal_name: str):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+
+_HANDLED_SIGNALS = ("SIGTERM", "SIGINT")
+_received: list[str] = []  # signals received while the current command runs
+
+
+@contextlib.contextmanager
+def signals_interrupt():
+    """While the command runs, SIGTERM (what timeout, schedulers and systemd send) and SIGINT
+    raise Interrupted. Signals after the first are ignored so the cleanup it starts can finish."""
+    if threading.current_thread() is not threading.main_thread():  # only the main thread may set handlers
+        yield
+        return
+
+    def handler(number, frame):
+        if _received:
+            return
+        _received.append(signal.Signals(number).name)
+        raise Interrupted(_received[0])
+
+    print_unraisable = sys.unraisablehook
+
+    def unraisable(info):
+        # The signal landed in a destructor: say nothing, raise_if_interrupted raises it again.
+        if not isinstance(info.exc_value, Interrupted):
+            print_unraisable(info)
+
+    previous = {}
+    for name in _HANDLED_SIGNALS:
+        number = getattr(signal, name, None)
+        if number is not None:
+            previous[number] = signal.signal(number, handler)
+    sys.unraisablehook = unraisable
+    try:
+        yield
+    finally:
+        for number, old in previous.items():
+            signal.signal(number, signal.SIG_DFL if old is None else old)  # None: set outside Python
+        sys.unraisablehook = print_unraisable
+        _received.clear()
+
+
+def raise_if_interrupted() -> None:
+    """Raise Interrupted if a signal came. The handler raises at once, but where it lands in a
+    destructor or a weakref callback Python only prints the exception: checked once per frame,
+    such a signal still ends the bake a frame later."""
+    if _received:
+        raise Interrupted(_received[0])
+
+
+def kept_note(exc: BaseException) -> str:
+    """"; kept N frames in PATH" when the failed run kept a partial file, else ""."""
+    kept = getattr(exc, "kept", None)
+    if not kept:
+        return ""
+    path, frames = kept
+    return f"; kept {frames} frame{'s' if frames != 1 else ''} in {path}"
+
+
+def interrupted_message(exc: KeyboardInterrupt) -> str:
+    """One line for an interrupted command, e.g. ``interrupted (SIGTERM) at frame 37; kept 36
+    frames in out/x.partial.h5``."""
+    name = exc.signal_name if isinstance(exc, Interrupted) else "SIGINT"
+    frame = getattr(exc, "frame", None)
+    where = f" at frame {frame}" if frame is not None else ""
+    return f"interrupted ({name}){where}" + (kept_note(exc) or "; no output written")
+
+
 def handle_errors(func):
     """Turn ClothtoolError (and unexpected failures) into one line and exit code 1 (2 for a
-    UsageError)."""
+    UsageError); a termination signal (SIGTERM, SIGINT) ends the command the same way."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
-            return func(*args, **kwargs)
+            with signals_interrupt():
+                return func(*args, **kwargs)
         except UsageError as exc:
             raise CommandError(str(exc), exit_code=2) from None
         except ClothtoolError as exc:
-            raise CommandError(str(exc)) from None
-        except KeyboardInterrupt:
-            raise click.Abort() from None
+            raise CommandError(str(exc) + kept_note(exc)) from None
+        except KeyboardInterrupt as exc:
+            raise CommandError(interrupted_message(exc)) from None
         except click.exceptions.ClickException:
             raise
         except click.exceptions.Exit:

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from clothtool.errors import ClothtoolError, FormatError
+from clothtool.io.atomic import write_error
 from clothtool.io.cache import CacheHeader, ClothTopology, ColliderInfo, FrameData, partial_path
 
 FORMAT_NAME = "clothtool-cache"
@@ -186,34 +187,60 @@ def scalar_params_json(params: dict) -> str:
 class StreamedCacheWriter(abc.ABC):
     """The lifecycle every cache writer shares. Frames stream into a temporary sibling of the
     output (``_tmp``); ``commit`` renames it into place. Leaving the ``with`` block uncommitted
-    (an error, an unstable bake) keeps the whole frames written so far under the partial name,
-    or removes the temporary file when there are none. A format implements ``write_header``,
-    ``write_frame`` and ``_release(keep)``: close its file, saving it first when ``keep``."""
+    (an error, an interrupt, an unstable bake) keeps the whole frames written so far under the
+    partial name, or removes the temporary file when there are none or when the file cannot
+    be trusted; ``kept`` then says what was kept: (partial path, frame count) or None.
+
+    A format implements ``write_header``, ``write_frame`` and ``_release(keep) -> bool``:
+    close its file, first saving it when ``keep``, and say whether the file holds the
+    ``frames_written`` whole frames. After a write error (``_fail``) the writer never touches
+    its file again except to close it: no more saves or flushes into a file that failed."""
 
     def __init__(self, path: Path, tmp: Path):
         self.path = path
         self._tmp = tmp
         self._header: CacheHeader | None = None
         self._committed = False
+        self._failed = False  # a write into the file failed: its state on disk is suspect
         self._deforming: set[int] = set()  # colliders whose points the last frame wrote
         self.frames_written = 0
+        self.kept: tuple[Path, int] | None = None
+        self._error: ClothtoolError | None = None  # the write error that failed the file
 
     def __enter__(self):
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if self._committed:
-            return
-        keep = self.frames_written > 0
-        self._release(keep)
-        if keep:
-            os.replace(self._tmp, partial_path(self.path))
-        with contextlib.suppress(FileNotFoundError):
-            self._tmp.unlink()
+        if not self._committed:
+            self._abandon()
+
+    def _abandon(self, holds_frames: bool | None = None) -> None:
+        """Keep the whole frames written so far under the partial name, or nothing; never
+        raises (the error that ended the bake is the one to report). ``holds_frames``: what
+        ``_release`` said when the file is already released."""
+        try:
+            if holds_frames is None:
+                holds_frames = self._release(keep=self.frames_written > 0)
+            if holds_frames and self.frames_written > 0 and self.kept is None:
+                partial = partial_path(self.path)
+                os.replace(self._tmp, partial)
+                self.kept = (partial, self.frames_written)
+        except (ClothtoolError, OSError):
+            pass
+        finally:
+            with contextlib.suppress(OSError):
+                self._tmp.unlink()
 
     @abc.abstractmethod
-    def _release(self, keep: bool) -> None:
-        """Close the format's file; when ``keep``, first save what it holds to ``_tmp``."""
+    def _release(self, keep: bool) -> bool:
+        """Close the format's file (when ``keep``, first save what it holds to ``_tmp``);
+        return whether ``_tmp`` now holds the ``frames_written`` whole frames."""
+
+    def _fail(self, exc: BaseException, doing: str) -> ClothtoolError:
+        """Mark the file as failed and give the one-line error for ``exc``."""
+        self._failed = True
+        self._error = write_error(self.path, exc, doing)
+        return self._error
 
     def _check_new_header(self, header: CacheHeader) -> None:
         if self._header is not None:
@@ -225,14 +252,24 @@ class StreamedCacheWriter(abc.ABC):
         header = self._header
         if header is None:
             raise ClothtoolError(f"{self.path}: write_frame called before write_header")
+        if self._failed:
+            raise ClothtoolError(f"{self.path}: an earlier write failed; the file is abandoned, write no more frames")
         check_frame(header, frame, header.start_frame + self.frames_written, self.path)
         return header
 
     def commit(self) -> None:
         if self._header is None:
             raise ClothtoolError(f"{self.path}: commit called before write_header")
-        self._release(keep=True)
-        os.replace(self._tmp, self.path)
+        if self._failed:
+            raise self._error
+        holds_frames = self._release(keep=True)
+        if self._failed or not holds_frames:  # the last save or flush failed
+            self._abandon(holds_frames)
+            raise self._error or ClothtoolError(f"{self.path}: the cache could not be completed; nothing was written under its name")
+        try:
+            os.replace(self._tmp, self.path)
+        except OSError as exc:
+            raise write_error(self.path, exc, "renaming the finished cache into place") from None
         self._committed = True
 
 

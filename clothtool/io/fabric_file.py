@@ -7,6 +7,7 @@ version bounds and write datasets in a fixed order).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -17,12 +18,12 @@ from clothtool import __version__
 from clothtool.errors import FormatError, UsageError
 from clothtool.fabric import ARRAY_FIELDS, ATTR_FIELDS, FORMAT_NAME, FORMAT_VERSION, Fabric
 from clothtool.inputs import note_input
-from clothtool.io.atomic import atomic_output
+from clothtool.io.atomic import atomic_output, write_error
 from clothtool.io.h5safe import check_hdf5_file, read_dataset
+from clothtool.io.hdf5_files import create_hdf5
 
 # Arrays at least this many bytes are chunked and compressed (shuffle + gzip).
 _COMPRESS_ABOVE_BYTES = 1 << 16
-HDF5_LIBVER = ("earliest", "v110")
 # A fabric is an HDF5 file; ".fabric.h5" is the documented name.
 SUFFIXES = (".h5", ".hdf5")
 
@@ -38,26 +39,38 @@ def check_fabric_output_name(path: str | os.PathLike) -> None:
 
 def write_fabric(fabric: Fabric, path: str | os.PathLike) -> None:
     """Validate ``fabric`` and write it to ``path`` atomically."""
-    import h5py
-
     fabric.validate()
-    with atomic_output(path) as tmp:
-        with h5py.File(tmp, "w", libver=HDF5_LIBVER) as f:
-            f.attrs["format"] = FORMAT_NAME
-            f.attrs["format_version"] = FORMAT_VERSION
-            f.attrs["generator"] = f"clothtool {__version__}"
-            f.attrs["particle_count"] = fabric.particle_count
-            f.attrs["meters_per_unit"] = float(fabric.meters_per_unit)
-            f.attrs["up_axis"] = fabric.up_axis
-            f.attrs["hang_direction"] = np.asarray(fabric.hang_direction, np.float32)
-            f.attrs["source_sha256"] = fabric.source_sha256
-            f.attrs["cook_options"] = fabric.cook_options
-            for name, _, _ in ARRAY_FIELDS:
-                data = getattr(fabric, name)
-                options = {}
-                if data.nbytes >= _COMPRESS_ABOVE_BYTES:
-                    options = dict(compression="gzip", compression_opts=4, shuffle=True)
-                f.create_dataset(name, data=data, **options)
+    with atomic_output(path, "writing the fabric") as tmp:
+        f = create_hdf5(tmp)
+        try:
+            _write_fabric_file(fabric, f)
+            f.close()  # writes the metadata: a full disk can fail here too
+        except BaseException as exc:
+            # The first failure is the one to report: closing a file that failed to write
+            # fails again (or worse), so it is closed quietly and then thrown away.
+            with contextlib.suppress(Exception):
+                f.close()
+            if isinstance(exc, (OSError, RuntimeError)):  # h5py raises RuntimeError when a flush fails
+                raise write_error(path, exc, "writing the fabric") from None
+            raise
+
+
+def _write_fabric_file(fabric: Fabric, f) -> None:
+    f.attrs["format"] = FORMAT_NAME
+    f.attrs["format_version"] = FORMAT_VERSION
+    f.attrs["generator"] = f"clothtool {__version__}"
+    f.attrs["particle_count"] = fabric.particle_count
+    f.attrs["meters_per_unit"] = float(fabric.meters_per_unit)
+    f.attrs["up_axis"] = fabric.up_axis
+    f.attrs["hang_direction"] = np.asarray(fabric.hang_direction, np.float32)
+    f.attrs["source_sha256"] = fabric.source_sha256
+    f.attrs["cook_options"] = fabric.cook_options
+    for name, _, _ in ARRAY_FIELDS:
+        data = getattr(fabric, name)
+        options = {}
+        if data.nbytes >= _COMPRESS_ABOVE_BYTES:
+            options = dict(compression="gzip", compression_opts=4, shuffle=True)
+        f.create_dataset(name, data=data, **options)
 
 
 def _fail(path, message: str):

@@ -25,7 +25,7 @@ import numpy as np
 
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
-from clothtool.io.atomic import check_output_path, temporary_sibling
+from clothtool.io.atomic import check_output_path, temporary_sibling, write_error
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData
 from clothtool.io.cache_common import (
     _NAME,
@@ -40,8 +40,7 @@ from clothtool.io.cache_common import (
     writes_colliders,
 )
 from clothtool.io.h5safe import check_hdf5_file, check_layout, read_dataset
-
-HDF5_LIBVER = ("earliest", "v110")
+from clothtool.io.hdf5_files import create_hdf5
 
 
 # ---------------------------------------------------------------------------------------------
@@ -66,23 +65,25 @@ class H5CacheWriter(StreamedCacheWriter):
         super().__init__(path, temporary_sibling(path))
         self._filters = _COMPRESSION[options.compression]
         self._file = None
+        self._last_extents: list[np.ndarray] = []  # per cloth, of the last frame flushed
 
     def write_header(self, header: CacheHeader) -> None:
-        import h5py
-
         self._check_new_header(header)
         self._header = header
         try:
-            self._file = f = h5py.File(self._tmp, "w", libver=HDF5_LIBVER)
+            self._file = f = create_hdf5(self._tmp)  # a full disk raises at the write that meets it
         except OSError as exc:
-            raise ClothtoolError(f"{self.path}: cannot create the HDF5 file ({_first_line(exc)}); check the directory is writable") from None
-        _write_root_attrs(f, header)
-        for cloth in header.cloths:
-            self._create_cloth(f.create_group(f"cloth/{cloth.name}"), cloth, header)
-        if writes_colliders(header):
-            for collider in header.colliders:
-                self._create_collider(f.create_group(f"collider/{collider.name}"), collider)
-        f.flush()
+            raise write_error(self.path, exc, "creating the HDF5 file") from None
+        try:
+            _write_root_attrs(f, header)
+            for cloth in header.cloths:
+                self._create_cloth(f.create_group(f"cloth/{cloth.name}"), cloth, header)
+            if writes_colliders(header):
+                for collider in header.colliders:
+                    self._create_collider(f.create_group(f"collider/{collider.name}"), collider)
+            f.flush()
+        except (OSError, RuntimeError) as exc:
+            raise self._fail(exc, "writing the header") from None
 
     def _series(self, group, name: str, shape: tuple, dtype, per_frame_chunk: bool = False):
         # Datasets grow one frame at a time, so a partial file holds exactly the frames written.
@@ -130,19 +131,23 @@ class H5CacheWriter(StreamedCacheWriter):
         if writes_colliders(header):  # checked before anything of the frame is written
             moved = deformed_collider_points(header, frame, self._deforming if self.frames_written else None, self.path)
         try:
-            self._write_frame(frame, moved)
-        except OSError as exc:
-            raise ClothtoolError(f"{self.path}: cannot write frame {frame.frame} ({_first_line(exc)}); check free disk space") from None
+            extents = self._write_frame(frame, moved)
+        except (OSError, RuntimeError) as exc:  # h5py raises RuntimeError when a flush fails
+            raise self._fail(exc, f"writing frame {frame.frame}") from None
+        self._last_extents = extents
         self._deforming = set(moved)
         self.frames_written += 1
 
-    def _write_frame(self, frame: FrameData, moved: dict[int, np.ndarray]) -> None:
+    def _write_frame(self, frame: FrameData, moved: dict[int, np.ndarray]) -> list[np.ndarray]:
+        """Write and flush one frame; return its extent per cloth."""
         header, f, k = self._header, self._file, self.frames_written
+        extents = []
         for i, cloth in enumerate(header.cloths):
             g = f["cloth"][cloth.name]
             points = as_points(frame.points[i])
+            extents.append(points_extent(points))
             _append(g["P"], k, points)
-            _append(g["extent"], k, points_extent(points))
+            _append(g["extent"], k, extents[-1])
             if "v" in g:
                 _append(g["v"], k, as_points(frame.velocities[i]))
             if "stats" in g:
@@ -153,6 +158,7 @@ class H5CacheWriter(StreamedCacheWriter):
         f.attrs["frame_count"] = k + 1
         # Flushing every frame keeps memory flat and leaves a readable file after a crash.
         f.flush()
+        return extents
 
     def _write_colliders(self, frame: FrameData, k: int, moved: dict[int, np.ndarray]) -> None:
         header = self._header
@@ -164,14 +170,44 @@ class H5CacheWriter(StreamedCacheWriter):
                     self._series(g, "P", moved[i].shape, np.float32, per_frame_chunk=True)
                 _append(g["P"], k, moved[i])
 
-    def _release(self, keep: bool) -> None:
+    def _release(self, keep: bool) -> bool:
         # Flushed every frame, the file holds all it should: trimmed and closed either way.
-        if self._file is None:
-            return
+        f, self._file = self._file, None
+        if f is None:
+            return False
+        if not self._failed:
+            try:
+                _trim(f, self.frames_written)  # an interrupt may have come in the middle of a frame
+                f.attrs["frame_count"] = self.frames_written
+                f.flush()
+                f.close()
+                return True
+            except (OSError, RuntimeError) as exc:
+                self._fail(exc, "closing the file")
+        # A write failed: close without trusting the file, then keep it only if it reads back
+        # the frames flushed before the failure.
         with contextlib.suppress(Exception):
-            _trim(self._file, self.frames_written)
-        self._file.close()
-        self._file = None
+            _trim(f, self.frames_written)
+            f.attrs["frame_count"] = self.frames_written
+        with contextlib.suppress(Exception):
+            f.close()
+        return keep and self._reads_back_flushed_frames()
+
+    def _reads_back_flushed_frames(self) -> bool:
+        """Whether ``_tmp`` holds exactly the frames flushed, the last one as it was written."""
+        try:
+            with H5CacheReader(self._tmp) as cache:
+                if len(cache.frames) != self.frames_written or len(self._last_extents) != len(cache.header.cloths):
+                    return False
+                last = cache.frames[-1]
+                for cloth, extent in zip(cache.header.cloths, self._last_extents):
+                    stored = cache.extent(cloth.name, last)
+                    read = points_extent(cache.points(cloth.name, last))
+                    if not (np.array_equal(stored, extent) and np.array_equal(read, extent)):
+                        return False
+        except (ClothtoolError, OSError, RuntimeError):
+            return False
+        return True
 
 
 def _append(dataset, k: int, value) -> None:

@@ -10,7 +10,6 @@ frame count). The reader has the API of ``clothtool.io.h5cache.CacheReader``.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import os
 import re
@@ -23,7 +22,7 @@ from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
-from clothtool.io.atomic import check_output_path, temporary_sibling
+from clothtool.io.atomic import check_output_path, temporary_sibling, write_error
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData
 from clothtool.io.cache_common import (
     CacheReader,
@@ -49,8 +48,7 @@ _STATS_PREFIX = "clothtool:stats:"
 
 def _temporary_name(path: Path) -> Path:
     # Sdf picks the file format from the extension: the temporary name must keep it.
-    tmp = temporary_sibling(path)
-    return tmp.with_name(tmp.name + path.suffix)
+    return temporary_sibling(path, keep_suffix=True)
 
 
 def _layer_args(path: Path) -> dict:
@@ -139,8 +137,9 @@ def convex_hull_mesh(planes: np.ndarray):
 # The writer.
 
 
-class UsdCacheWriter(StreamedCacheWriter):
-    """Stream frames into a USD cache; see the module docstring and formats/cache-usd/v1.md."""
+class UsdLayerWriter(StreamedCacheWriter):
+    """What every USD writer shares: one Sdf layer in the temporary file, saved every
+    ``save_every`` frames (crate) or once at the end (text), and given up after a failed save."""
 
     def __init__(self, path: Path, options: CacheOptions = CacheOptions()):
         path = check_output_path(path)
@@ -149,17 +148,62 @@ class UsdCacheWriter(StreamedCacheWriter):
         # Text layers rewrite the whole file on every save: save them once, at the end.
         self._save_every = int(options.save_every) if self._crate else 0
         self._layer = None
+
+    def _frame_written(self, frame: int) -> None:
+        """Count the frame; save a crate layer every ``save_every`` frames, so memory stays flat."""
+        self.frames_written += 1
+        if self._save_every > 0 and self.frames_written % self._save_every == 0:
+            self._save(f"writing frame {frame}")
+
+    def _save(self, doing: str) -> None:
+        """Save the layer; after a failed save the file is never saved again.
+
+        A crate save rewrites the file's table of contents, so a save that fails part way
+        leaves a file no reader can open (and saving the layer again crashed USD): the
+        writer gives the file up.
+        """
+        try:
+            saved = self._layer.Save()
+        except Tf.ErrorException as exc:
+            raise self._fail(_FailedSave(_first_line(exc)), doing) from None
+        if not saved:
+            raise self._fail(_FailedSave("USD reported a failed save"), doing)
+
+    def _release(self, keep: bool) -> bool:
+        # Drop every handle before the rename: the layer registry must forget the temporary name.
+        if self._layer is None or self._failed:
+            self._layer = None
+            return False
+        try:
+            if keep:
+                self._save("saving the layer")
+        except ClothtoolError:
+            return False
+        finally:
+            self._layer = None
+            self._drop_handles()
+        return keep
+
+    def _drop_handles(self) -> None:
+        """Forget whatever else of the layer a writer holds (before the rename)."""
+
+
+class UsdCacheWriter(UsdLayerWriter):
+    """Stream frames into a USD cache; see the module docstring and formats/cache-usd/v1.md."""
+
+    def __init__(self, path: Path, options: CacheOptions = CacheOptions()):
+        super().__init__(path, options)
         self._cloth_paths: list[dict] = []
         self._collider_paths: list[dict] = []
 
     def write_header(self, header: CacheHeader) -> None:
         self._check_new_header(header)
-        with contextlib.suppress(FileNotFoundError):
-            self._tmp.unlink()  # a stale file from a killed process with the same id
         try:
             layer = Sdf.Layer.CreateNew(str(self._tmp), _layer_args(self.path))
         except Tf.ErrorException as exc:
-            raise ClothtoolError(f"{self.path}: cannot create the USD layer ({_first_line(exc)}); check the directory is writable") from None
+            raise write_error(self.path, exc, "creating the USD layer") from None
+        if layer is None:
+            raise ClothtoolError(f"{self.path}: cannot create the USD layer; check the directory is writable")
         self._header, self._layer = header, layer
         # A composed stage only while authoring the schema prims: UsdGeom fills in the types.
         stage = Usd.Stage.Open(layer)
@@ -188,9 +232,7 @@ class UsdCacheWriter(StreamedCacheWriter):
             self._erase_samples(time)  # a partial file holds whole frames only
             raise
         self._deforming = set(moved)
-        self.frames_written += 1
-        if self._save_every > 0 and self.frames_written % self._save_every == 0:
-            self._save()
+        self._frame_written(frame.frame)
 
     def _write_cloths(self, frame: FrameData, time: float, first: bool) -> None:
         layer = self._layer
@@ -220,21 +262,8 @@ class UsdCacheWriter(StreamedCacheWriter):
                 if layer.QueryTimeSample(path, time) is not None:
                     layer.EraseTimeSample(path, time)
 
-    def _save(self) -> None:
-        try:
-            saved = self._layer.Save()
-        except Tf.ErrorException as exc:
-            saved, reason = False, _first_line(exc)
-        else:
-            reason = "USD reported a failed save"
-        if not saved:
-            raise ClothtoolError(f"{self.path}: cannot save the USD layer ({reason}); check free disk space and permissions")
-
-    def _release(self, keep: bool) -> None:
-        # Drop every handle before the rename: the layer registry must forget the temporary name.
-        if keep and self._layer is not None:
-            self._save()
-        self._layer = None
+class _FailedSave(Exception):
+    """A failed ``Sdf.Layer.Save``, carrying USD's reason (e.g. "No space left on device")."""
 
 
 def _first_line(exc: Exception) -> str:

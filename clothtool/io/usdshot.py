@@ -16,30 +16,25 @@ from pathlib import Path
 
 import numpy as np
 
-from clothtool.io.usdcache import _first_line, _layer_args, _temporary_name  # first: sets pxr up for crate files
+from clothtool.io.usdcache import UsdLayerWriter, _first_line, _layer_args  # first: sets pxr up for crate files
 from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
-from clothtool.io.atomic import check_output_path
 from clothtool.io.cache import CacheHeader, CacheOptions, FrameData
-from clothtool.io.cache_common import StreamedCacheWriter, as_points, points_extent
+from clothtool.io.cache_common import as_points, points_extent
 
 
-class ShotLayerWriter(StreamedCacheWriter):
+class ShotLayerWriter(UsdLayerWriter):
     """Stream frames into a layer over ``scene``'s USD stage (see the module docstring)."""
 
     def __init__(self, path: Path, scene, options: CacheOptions = CacheOptions()):
-        path = check_output_path(path)
-        super().__init__(path, _temporary_name(path))
+        super().__init__(path, options)
         self._shot = Path(scene.path)
         self._cloths = {c.name: c for c in scene.cloths}
         missing = [c.name for c in scene.cloths if c.prim is None]
         if missing:
             raise FormatError(f"{path}: cloth '{missing[0]}' comes from no USD prim; a layer over the shot needs a USD stage scene")
-        self._crate = path.suffix.lower() in (".usdc", ".usd")
-        self._save_every = int(options.save_every) if self._crate else 0
-        self._layer = None
         self._stage = None
         self._targets: list[dict] = []
 
@@ -96,23 +91,8 @@ class ShotLayerWriter(StreamedCacheWriter):
                     velocities = np.asarray(frame.velocities[i], np.float64)[target["map"]] @ world_to_local[:3, :3]
                     self._layer.SetTimeSample(target["paths"]["velocities"], time, Vt.Vec3fArray.FromNumpy(as_points(velocities)))
             self._layer.endTimeCode = time
-        self.frames_written += 1
-        if self._save_every > 0 and self.frames_written % self._save_every == 0:
-            self._save()
+        self._frame_written(frame.frame)
 
-    def _save(self) -> None:
-        try:
-            saved = self._layer.Save()
-        except Tf.ErrorException as exc:
-            saved, reason = False, _first_line(exc)
-        else:
-            reason = "USD reported a failed save"
-        if not saved:
-            raise ClothtoolError(f"{self.path}: cannot save the USD layer ({reason}); check free disk space and permissions")
-
-    def _release(self, keep: bool) -> None:
-        if keep and self._layer is not None:
-            self._save()
-        self._layer = None
+    def _drop_handles(self) -> None:
         self._stage = None
         self._targets = []

@@ -76,7 +76,7 @@ def test_each_frame_is_flushed(out_dir):
         writer.write_header(header)
         for f in (3, 4, 5):
             writer.write_frame(make_frame(header, f))
-        (tmp,) = [p for p in out_dir.iterdir() if p.name.startswith(".shot.h5.tmp-")]
+        (tmp,) = [p for p in out_dir.iterdir() if p.name.startswith(".shot.h5.clothtool-tmp.")]
         shutil.copyfile(tmp, out_dir / "crash.h5")
         writer.commit()
     with read_h5_cache(out_dir / "crash.h5") as cache:

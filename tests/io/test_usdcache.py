@@ -147,7 +147,7 @@ def test_temporary_file_keeps_the_suffix(out_dir):
         writer.write_header(header)
         writer.write_frame(make_frame(header, 3))
         (tmp,) = files_in(out_dir)
-        assert re.fullmatch(r"\.shot\.usdc\.tmp-\d+\.usdc", tmp)
+        assert re.fullmatch(r"\.shot\.usdc\.clothtool-tmp\.\d+\.\d+\.[0-9a-f]{8}\.usdc", tmp)
         writer.commit()
     assert files_in(out_dir) == ["shot.usdc"]
 
@@ -161,7 +161,7 @@ def test_usd_suffix_is_crate(out_dir):
 def test_no_paths_or_timestamps(out_dir, suffix):
     write_cache(out_dir / f"shot{suffix}", make_header())
     data = (out_dir / f"shot{suffix}").read_bytes()
-    assert str(out_dir).encode() not in data and b".tmp-" not in data and b"/tmp" not in data
+    assert str(out_dir).encode() not in data and b"clothtool-tmp" not in data and b"/tmp" not in data
     assert not re.search(rb"20\d\d-\d\d-\d\d|\d\d:\d\d:\d\d", data)
     layer = Sdf.Layer.OpenAsAnonymous(str(out_dir / f"shot{suffix}"))
     assert layer.documentation == "" and layer.comment == ""
