@@ -48,17 +48,24 @@ def one_by_one(triangles):
     return np.arange(triangles.shape[0] + 1, dtype=np.int32)
 
 
-def run(triangles, frame, air, coeffs, cur, prev, offsets=None):
+def shares(n, seed=0):
+    """Per-particle shares around 1, as a quad mesh's are (3/4 to 3/2)."""
+    return f32(np.random.default_rng(1000 + seed).uniform(0.75, 1.5, n))
+
+
+def run(triangles, frame, air, coeffs, cur, prev, offsets=None, share=None):
     out = cur.copy()
     offsets = one_by_one(triangles) if offsets is None else offsets
-    apply_wind(triangles, offsets, frame[0], frame[1], air, *coeffs, out, prev)
+    share = shares(cur.shape[0]) if share is None else share
+    apply_wind(triangles, offsets, share, frame[0], frame[1], air, *coeffs, out, prev)
     return out
 
 
-def compare(triangles, frame, air, coeffs, cur, prev, offsets=None):
-    got = run(triangles, frame, air, coeffs, cur, prev, offsets)
+def compare(triangles, frame, air, coeffs, cur, prev, offsets=None, share=None):
+    share = shares(cur.shape[0]) if share is None else share
+    got = run(triangles, frame, air, coeffs, cur, prev, offsets, share)
     offsets = one_by_one(triangles) if offsets is None else offsets
-    want = ref.apply_wind(triangles, offsets, frame[0], frame[1], air, *coeffs, cur, prev)
+    want = ref.apply_wind(triangles, offsets, share, frame[0], frame[1], air, *coeffs, cur, prev)
     assert_close(got, want, ATOL, "cur")
     np.testing.assert_array_equal(got[:, 3], cur[:, 3])  # inverse masses are read, not written
     pinned = cur[:, 3] == 0
@@ -120,8 +127,10 @@ def test_slow_motion_still_feels_the_air():
         cur = prev.copy()
         cur[:, :3] += step * scale
         got = cur.copy()
-        apply_wind(triangles, one_by_one(triangles), *(np.zeros((3, 3)), np.zeros(3)), np.zeros(3), *coeffs, got, prev)
-        want = ref.apply_wind(triangles, one_by_one(triangles), np.zeros((3, 3)), np.zeros(3), np.zeros(3), *coeffs, cur, prev)
+        share = np.ones(cur.shape[0])
+        apply_wind(triangles, one_by_one(triangles), share, np.zeros((3, 3)), np.zeros(3), np.zeros(3), *coeffs, got, prev)
+        want = ref.apply_wind(triangles, one_by_one(triangles), share, np.zeros((3, 3)), np.zeros(3), np.zeros(3), *coeffs,
+                              cur, prev)
         push = got[:, :3] - cur[:, :3]
         np.testing.assert_allclose(push, want[:, :3] - cur[:, :3], rtol=1e-5, atol=1e-6 * np.abs(push).max())
         assert np.all(push @ step < 0)  # against the motion
@@ -172,4 +181,5 @@ def test_reference_refuses_colours_that_share_particles():
     rng = np.random.default_rng(2)
     _, cur, prev = cloth(rng, columns=3, rows=2)
     with pytest.raises(ValueError, match="share a movable particle"):
-        ref.apply_wind(triangles, np.array([0, 2]), *NO_FRAME, f32(np.zeros(3)), *coefficients(rng), cur, prev)
+        ref.apply_wind(triangles, np.array([0, 2]), shares(cur.shape[0]), *NO_FRAME, f32(np.zeros(3)), *coefficients(rng),
+                       cur, prev)

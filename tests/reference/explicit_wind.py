@@ -1,8 +1,8 @@
 """Reference for clothtool.integrators.explicit.kernels.explicit_wind: the air law per triangle.
 
 Per triangle: m = (x1 - x0) x (x2 - x0), u = mean(v) - wind (its motion relative to the air),
-and each corner gets -density * G(u, m) of tests/reference/air.py (a third of the triangle's
-drag and lift; pinned corners too). No area or no relative motion: nothing.
+and each corner j gets -share_j * density * G(u, m) of tests/reference/air.py (a third of the
+triangle's drag and lift times the particle's share; pinned corners too). No area or no relative motion: nothing.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import numpy as np
 from tests.reference import air
 
 
-def wind_forces(triangles, air_velocity, drag, lift, density, cur, velocity, force):
+def wind_forces(triangles, share, air_velocity, drag, lift, density, cur, velocity, force):
     """Returns force (float64 copy) after adding every triangle's wind; inputs untouched."""
     tri = np.asarray(triangles)
     x = np.asarray(cur, np.float64)[:, :3]
@@ -23,5 +23,5 @@ def wind_forces(triangles, air_velocity, drag, lift, density, cur, velocity, for
         u = velocity[ids].mean(axis=0) - np.asarray(air_velocity, np.float64)
         gx, gy, gz, ok = air.triangle_air(*u, *m, float(drag), float(lift))
         if ok:
-            out[ids] -= float(density) * np.array([gx, gy, gz])
+            out[ids] -= float(density) * np.outer(np.asarray(share, np.float64)[ids], [gx, gy, gz])
     return out

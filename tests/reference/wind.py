@@ -12,8 +12,9 @@ with angles as the textbook does,
     i   = (c_drag |cos| |d| d + c_lift cos sin |d|^2 l^) * a * density   (tests/reference/air.py)
 
 (the drag and lift of 1/2 rho C A v^2 with v = d / h, a third per corner: density is
-rho s^3 / 12, see the kernel). Each corner moves by -i times its inverse mass (cur.w) —
-scaled down, where it would, so that the centre moves by at most |d| (air can at most stop
+rho s^3 / 12, see the kernel). Each corner j moves by -i times its inverse mass (cur.w) and
+its share (clothtool.solver.air; 1 on a triangle mesh) — scaled down, where it would, so
+that the centre moves by at most |d| (air can at most stop
 the triangle's relative motion). A triangle without area or relative motion gets nothing;
 there is no speed threshold (the seed's FLT_EPSILON cut-off is gone).
 
@@ -50,7 +51,7 @@ def triangle_impulse(c, p, frame_matrix, frame_offset, air_offset, drag, lift, d
     return air_push(d, n, drag, lift, density), float(np.linalg.norm(d))
 
 
-def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset, drag, lift, density, cur, prev):
+def apply_wind(triangles, color_offsets, share, frame_matrix, frame_offset, air_offset, drag, lift, density, cur, prev):
     """Returns cur (float64 copy) after every triangle's impulse, applied in triangle order."""
     triangles = np.asarray(triangles)
     movable = np.asarray(cur)[:, 3] > 0
@@ -67,24 +68,25 @@ def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset,
         np.asarray(frame_matrix, np.float64), np.asarray(frame_offset, np.float64),
         np.asarray(air_offset, np.float64), float(drag), float(lift), float(density),
     )
+    share = np.asarray(share, np.float64)
     for tri in np.asarray(triangles):
         impulse, length = triangle_impulse(cur[tri, :3], prev[tri, :3], *args)
-        impulse = capped(impulse, length, cur[tri, 3].mean())
+        impulse = capped(impulse, length, (cur[tri, 3] * share[tri]).mean())
         for j in tri:
-            cur[j, :3] -= impulse * cur[j, 3]
+            cur[j, :3] -= impulse * cur[j, 3] * share[j]
     return cur
 
 
-def _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev, scratch=None):
-    """Per triangle lo..hi: (d (k,3), unnormalised normal (k,3), mean inverse mass (k,)) from
-    the flat (n*4,) particle views."""
+def _gather(triangles, share, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev, scratch=None):
+    """Per triangle lo..hi: (d (k,3), unnormalised normal (k,3), mean over its corners of
+    inverse mass times share (k,)) from the flat (n*4,) particle views."""
     c = np.asarray(cur, np.float64).reshape(-1, 4)
     p = np.asarray(prev, np.float64).reshape(-1, 4)
     tri = np.asarray(triangles)[lo:hi]
     centre = c[tri, :3].mean(axis=1)
     d = centre - p[tri, :3].mean(axis=1) + centre @ np.asarray(frame_matrix, np.float64).T + frame_offset - air_offset
     normal = np.cross(c[tri[:, 2], :3] - c[tri[:, 0], :3], c[tri[:, 1], :3] - c[tri[:, 0], :3])
-    return d, normal, c[tri, 3].mean(axis=1)
+    return d, normal, (c[tri, 3] * np.asarray(share, np.float64)[tri]).mean(axis=1)
 
 
 def _impulses(d, normal, mean_inverse_mass, drag, lift, density):

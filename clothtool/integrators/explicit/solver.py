@@ -37,6 +37,7 @@ from clothtool.integrators.explicit.kernels.explicit_springs import spring_force
 from clothtool.integrators.explicit.kernels.explicit_wind import wind_forces
 from clothtool.integrators.explicit.springs import air_density, spring_damping, spring_stiffness
 from clothtool.integrators.explicit.stability import stability_report
+from clothtool.solver.air import corner_shares
 from clothtool.solver.cloth import ClothState
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.sleep import SleepState
@@ -110,6 +111,7 @@ class ExplicitClothSolver:
         density = float(getattr(environment, "fluid_density", 1.0))
         self.has_wind = (material.drag_coefficient > 0 or material.lift_coefficient > 0) and density > 0 and model.triangles.shape[0] > 0
         self.air_density = dtype.type(air_density(model, density) if self.has_wind else 0.0)
+        self.air_share = corner_shares(model).astype(dtype)
         self.drag = dtype.type(material.drag_coefficient)
         self.lift = dtype.type(material.lift_coefficient)
         sampler = collider_sampler(environment)
@@ -188,7 +190,7 @@ class ExplicitClothSolver:
         else:
             spring_forces(*springs, cur, velocity, force)
         if self.has_wind:
-            wind_forces(model.triangles[:0], np.zeros(3, dtype), zero, zero, zero, cur, velocity, force)
+            wind_forces(model.triangles[:0], self.air_share, np.zeros(3, dtype), zero, zero, zero, cur, velocity, force)
         symplectic_euler(np.zeros(3, dtype), zero, force, cur, prev, velocity)
         if self.colliders is not None:
             v4, v3, v1 = np.zeros((0, 4), dtype), np.zeros((0, 3), dtype), np.zeros(0, dtype)
@@ -232,7 +234,7 @@ class ExplicitClothSolver:
 
     def _wind(self, time: float) -> None:
         air = self.environment.wind_at(time).astype(self.dtype)
-        wind_forces(self.model.triangles, air, self.drag, self.lift, self.air_density, self.state.cur, self.velocity, self.force)
+        wind_forces(self.model.triangles, self.air_share, air, self.drag, self.lift, self.air_density, self.state.cur, self.velocity, self.force)
 
     def _collide(self, alpha: float, h) -> None:
         c = self.colliders

@@ -4,9 +4,10 @@ For each triangle, d is the motion of its centre over the iteration relative to 
 (plus the reference frame's motion at the centre), m = (c2 - c0) x (c1 - c0) its unnormalised
 normal, and each corner i moves by
 
-    -w_i * density * G(d, m)        G of clothtool.solver.kernels.air, density = rho s^3 / 12
+    -w_i * share_i * density * G(d, m)   G of clothtool.solver.kernels.air, density = rho s^3 / 12
 
-which is F h^2 w_i / 3 for the triangle's force F = -1/2 rho A (C_d |cos| |v| v + lift) at the
+which is F h^2 w_i / 3 (times the particle's share, clothtool.solver.air: 1 on a triangle
+mesh) for the triangle's force F = -1/2 rho A (C_d |cos| |v| v + lift) at the
 velocity v = d / h (in metres: s^3 because G has d twice and m once): each corner takes a
 third of its triangle's force (air.py says why a third), so the step length cancels and
 nothing depends on the solver frequency. (The seed moves every corner by the whole
@@ -43,9 +44,10 @@ _D0, _D1, _D2, _NX, _NY, _NZ, _W = 0, 1, 2, 3, 4, 5, 6
 
 
 @kernel(inline="always")
-def _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev, scratch):
+def _gather(triangles, share, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev, scratch):
     """Per triangle lo..hi of a colour: its centre's motion d relative to the air (with the
-    frame's motion at the centre), its unnormalised normal and its particles' mean inverse mass."""
+    frame's motion at the centre), its unnormalised normal and the mean over its corners of
+    inverse mass times share."""
     third = np.float32(1.0 / 3.0)
     for t in range(lo, hi):
         j = t - lo
@@ -72,7 +74,10 @@ def _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev
         scratch[_NX * BLOCK + j] = e1y * e2z - e1z * e2y
         scratch[_NY * BLOCK + j] = e1z * e2x - e1x * e2z
         scratch[_NZ * BLOCK + j] = e1x * e2y - e1y * e2x
-        scratch[_W * BLOCK + j] = (lane(p0, 3) + lane(p1, 3) + lane(p2, 3)) * third
+        w0 = lane(p0, 3) * share[triangles[t, 0]]
+        w1 = lane(p1, 3) * share[triangles[t, 1]]
+        w2 = lane(p2, 3) * share[triangles[t, 2]]
+        scratch[_W * BLOCK + j] = (w0 + w1 + w2) * third
 
 
 @kernel(inline="always")
@@ -99,9 +104,10 @@ def _impulses(count, drag, lift, density, scratch, impulse):
 
 
 @kernel
-def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset, drag, lift, density, cur, prev):
+def apply_wind(triangles, color_offsets, share, frame_matrix, frame_offset, air_offset, drag, lift, density, cur, prev):
     """triangles (t,3), in colours: triangles[color_offsets[k]:color_offsets[k+1]] share no
-    particle; frame_matrix (3,3), frame_offset (3,): the frame's motion over the iteration at
+    particle; share (n,): each particle's share in its triangles' force
+    (``clothtool.solver.air``, 1 for a triangle mesh); frame_matrix (3,3), frame_offset (3,): the frame's motion over the iteration at
     a point x is frame_matrix @ x + frame_offset; air_offset (3,): wind velocity * dt in local
     space; drag, lift: the aerodynamic coefficients C_d, C_l; density: rho s^3 / 12 (air
     density rho in kg/m^3, s metres per scene unit; the module docstring says why)."""
@@ -116,13 +122,14 @@ def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset,
             # unsigned indices: no negative-index wraparound code, which blocks vectorisation
             lo = np.uintp(first + block * BLOCK)
             hi = np.uintp(first + min(block * BLOCK + BLOCK, size))
-            _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, flat, flat_prev, scratch)
+            _gather(triangles, share, lo, hi, frame_matrix, frame_offset, air_offset, flat, flat_prev, scratch)
             _impulses(hi - lo, drag, lift, density, scratch, impulse)
             for t in range(lo, hi):
                 j = t - lo
                 for corner in range(3):
-                    i = 4 * triangles[t, corner]
-                    w = flat[i + 3]
+                    k = triangles[t, corner]
+                    i = 4 * k
+                    w = flat[i + 3] * share[k]
                     flat[i] -= impulse[j] * w
                     flat[i + 1] -= impulse[BLOCK + j] * w
                     flat[i + 2] -= impulse[2 * BLOCK + j] * w

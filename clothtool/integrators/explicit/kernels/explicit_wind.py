@@ -5,9 +5,10 @@ integrator apply it.
 For a triangle (x0, x1, x2) with m = (x1 - x0) x (x2 - x0) and u = (v0 + v1 + v2) / 3 - wind
 (its motion relative to the air), each corner receives
 
-    -density * G(u, m)      density = rho s^3 / 12 (force in kg scene-units/s^2)
+    -share_i * density * G(u, m)      density = rho s^3 / 12 (force in kg scene-units/s^2)
 
-a third of the triangle's drag and lift 1/2 rho C A |u|^2 (with its angle terms). (The talk
+a third of the triangle's drag and lift (times the particle's share, ``clothtool.solver.air``:
+1 on a triangle mesh) 1/2 rho C A |u|^2 (with its angle terms). (The talk
 adds a force linear in the wind along the normal to each point; the law here is the same
 quadratic drag and lift in all three integrators.) With still air it is the drag on the
 moving cloth; a triangle without area or relative motion feels nothing. Pinned particles'
@@ -25,8 +26,9 @@ from clothtool.solver.kernels.air import triangle_air
 
 
 @kernel
-def wind_forces(triangles, air, drag, lift, density, cur, velocity, force):
-    """triangles (t,3); air (3,) wind velocity (scene units/s); drag, lift: the aerodynamic
+def wind_forces(triangles, share, air, drag, lift, density, cur, velocity, force):
+    """triangles (t,3); share (n,): each particle's share in its triangles' force
+    (``clothtool.solver.air``, 1 for a triangle mesh); air (3,) wind velocity (scene units/s); drag, lift: the aerodynamic
     coefficients C_d, C_l; density: rho s^3 / 12 (rho in kg/m^3, s metres per scene unit);
     cur (n,4); velocity (n,3); force (n,3) is added to."""
     third = np.float32(1.0 / 3.0)
@@ -50,12 +52,15 @@ def wind_forces(triangles, air, drag, lift, density, cur, velocity, force):
         fx = -density * gx
         fy = -density * gy
         fz = -density * gz
-        force[i0, 0] += fx
-        force[i0, 1] += fy
-        force[i0, 2] += fz
-        force[i1, 0] += fx
-        force[i1, 1] += fy
-        force[i1, 2] += fz
-        force[i2, 0] += fx
-        force[i2, 1] += fy
-        force[i2, 2] += fz
+        s0 = share[i0]
+        s1 = share[i1]
+        s2 = share[i2]
+        force[i0, 0] += fx * s0
+        force[i0, 1] += fy * s0
+        force[i0, 2] += fz * s0
+        force[i1, 0] += fx * s1
+        force[i1, 1] += fy * s1
+        force[i1, 2] += fz * s1
+        force[i2, 0] += fx * s2
+        force[i2, 1] += fy * s2
+        force[i2, 2] += fz * s2
