@@ -1,13 +1,17 @@
-"""Stage: wind, drag and lift per triangle (the seed's applyWind).
+"""Stage: wind, drag and lift per triangle (the seed's applyWind with the physical air law).
 
-The kernel keeps the seed's formula; this stage chooses its parameters so that the result is
-physical with the solver's real particle masses (1/kg). The seed's impulse moves a particle
-by 2 c |cos| |d|^2 A rho_n w / h, and the physical displacement F h^2 / m of the drag force
-F = 1/2 rho c A v^2 |cos| (v = |d| / h, lengths s metres per scene unit) is equal to it when
-rho_n = rho s^3 h / 4. So ``fluid_density`` is the air's density in kg/m^3 and the material's
-drag and lift coefficients are ordinary aerodynamic coefficients. (NvCloth, with user-chosen
-inverse masses, instead treats them as tuning values and converts the coefficients in log
-space; with physical masses that made drag about a hundred times too strong.)
+The force on a triangle is 1/2 rho C A |u|^2 with the angle terms of
+``clothtool.solver.kernels.air`` (``fluid_density`` rho in kg/m^3 and the material's
+ordinary aerodynamic drag and lift coefficients), a third of it on each corner of a triangle
+mesh (on a quad mesh reweighted so that each particle's share matches its lumped mass,
+``clothtool.solver.air``), applied as the displacement F h^2 / (3 m) that the force gives a
+particle over one iteration. In that displacement the iteration length cancels (the
+kernel's docstring shows how), so the stage passes only the density in scene units,
+rho s^3 / 12 for s metres per scene unit, and the drag is the same at every solver
+frequency: a sheet falling face-on reaches the terminal speed sqrt(2 m g / (rho C_d A)).
+(NvCloth, with user-chosen inverse masses, treats the coefficients as tuning values,
+converts them in log space and moves each corner by the whole triangle's impulse; this
+tool's masses are physical, so its coefficients are too.)
 """
 
 from __future__ import annotations
@@ -15,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool.cook.triplets import TripletScheduler
+from clothtool.solver.air import corner_shares
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.wind import apply_wind
 from clothtool.solver.stage import Stage
@@ -37,22 +42,22 @@ class WindStage(Stage):
         schedule = TripletScheduler(model.triangles, model.inv_mass > 0).sets()
         self.triangles = np.ascontiguousarray(model.triangles[schedule.order], np.int32)
         self.color_offsets = schedule.offsets
+        self.share = corner_shares(model)
 
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver
         material = solver.model.material
         self.drag = np.float32(material.drag_coefficient)
         self.lift = np.float32(material.lift_coefficient)
-        self.inv_dt = np.float32(1.0 / plan.h)
         s = solver.model.units_to_meters
-        self.density = np.float32(solver.environment.fluid_density * s**3 * plan.h / 4.0)
+        self.density = np.float32(solver.environment.fluid_density * s**3 / 12.0)
         self.wind_world = solver.environment.wind_at(plan.time) * plan.h
 
     def warm_up(self) -> None:
         solver = self.solver
         matrix, offset = _NO_MOTION
         one = np.float32(1.0)
-        apply_wind(self.triangles[:0], self.color_offsets[:1], matrix, offset, offset, one, one, one, one, solver.state.cur, solver.state.prev)
+        apply_wind(self.triangles[:0], self.color_offsets[:1], self.share, matrix, offset, offset, one, one, one, solver.state.cur, solver.state.prev)
 
     def run(self, iteration: Iteration) -> None:
         solver = self.solver
@@ -63,6 +68,6 @@ class WindStage(Stage):
             matrix, offset = iteration.terms.motion_matrix, iteration.terms.motion_offset
             air = (iteration.terms.to_local @ self.wind_world).astype(np.float32)
         apply_wind(
-            self.triangles, self.color_offsets, matrix, offset, air, self.inv_dt, self.drag, self.lift, self.density,
+            self.triangles, self.color_offsets, self.share, matrix, offset, air, self.drag, self.lift, self.density,
             solver.state.cur, solver.state.prev,
         )

@@ -266,8 +266,8 @@ def flat_sheet(side):
     return fabric_from_arrays(pos, [1.0] * 4, triangles=[[0, 1, 2], [0, 2, 3]], area=1.0)
 
 
-def wind_force(fabric, wind, density=1.2, drag=0.5):
-    material = Material(areal_density=1.0, drag_coefficient=drag)
+def wind_force(fabric, wind, density=1.2, drag=0.5, lift=0.0):
+    material = Material(areal_density=1.0, drag_coefficient=drag, lift_coefficient=lift)
     solver = make_solver(fabric, material, SolverConfig(frequency=600.0), gravity=(0, 0, 0),
                          wind=lambda t: np.asarray(wind, np.float64), density=density)
     assert "wind" in solver.stage_names
@@ -279,25 +279,35 @@ def wind_force(fabric, wind, density=1.2, drag=0.5):
     return total
 
 
-def test_wind_pushes_along_the_normal_in_proportion_to_area():
-    wind = [1.0, 0.0, 2.0]
+def test_wind_drag_is_quadratic_and_in_proportion_to_area():
+    """A still sheet in wind w: F = 1/2 rho C_d A |n.w| w, the textbook drag."""
+    wind = np.array([1.0, 0.0, 2.0])
     small = wind_force(flat_sheet(0.5), wind)
     large = wind_force(flat_sheet(0.5 * math.sqrt(2.0)), wind)
-    # F = rho C_d A (n . w) n = 1.2 * 0.5 * 0.25 * 2 along +Z
-    np.testing.assert_allclose(small, [0.0, 0.0, 1.2 * 0.5 * 0.25 * 2.0], rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(small, 0.5 * 1.2 * 0.5 * 0.25 * 2.0 * wind, rtol=1e-5, atol=1e-9)
     np.testing.assert_allclose(large, 2.0 * small, rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(wind_force(flat_sheet(0.5), 3.0 * wind), 9.0 * small, rtol=1e-5, atol=1e-9)
     assert not wind_force(flat_sheet(0.5), [3.0, -1.0, 0.0]).any()  # wind in the sheet's plane
 
 
-def test_wind_on_a_tilted_sheet_follows_its_normal():
+def test_wind_on_a_tilted_sheet_gives_drag_along_the_wind_and_lift_across_it():
+    """Drag 1/2 rho C_d A |w|^2 |cos| along w; lift 1/2 rho C_l A |w|^2 cos sin at right angles
+    to w, towards the normal's part across the wind (theta: between the normal and w)."""
     angle = 0.6
     rotation = np.array([[1, 0, 0], [0, math.cos(angle), -math.sin(angle)], [0, math.sin(angle), math.cos(angle)]])
     fabric = flat_sheet(0.5)
     fabric = fabric.replace(rest_pos=(fabric.rest_pos.astype(np.float64) @ rotation.T).astype(np.float32))
     normal = rotation @ [0.0, 0.0, 1.0]
     wind = np.array([0.5, 1.0, 3.0])
-    force = wind_force(fabric, wind)
-    np.testing.assert_allclose(force, 1.2 * 0.5 * 0.25 * (normal @ wind) * normal, rtol=1e-5, atol=1e-7)
+    speed = np.linalg.norm(wind)
+    cos = normal @ wind / speed
+    across = normal - cos * wind / speed  # length sin
+    q = 0.5 * 1.2 * 0.25 * speed**2
+    drag = wind_force(fabric, wind, drag=0.5)
+    np.testing.assert_allclose(drag, q * 0.5 * abs(cos) * wind / speed, rtol=1e-5, atol=1e-7)
+    lift = wind_force(fabric, wind, drag=0.0, lift=0.3)
+    np.testing.assert_allclose(lift, q * 0.3 * cos * across, rtol=1e-5, atol=1e-7)
+    np.testing.assert_allclose(np.linalg.norm(across), math.sqrt(1 - cos * cos), rtol=1e-12)
 
 
 # ------------------------------------------------------------------------------ contact

@@ -112,13 +112,14 @@ def test_wind_forces_match_reference(seed):
     cur[:, 3] = np.where(rng.random(n) < 0.15, 0.0, rng.uniform(0.5, 2.0, n))
     velocity = f32(rng.normal(0.0, 2.0, (n, 3)))
     air = f32(rng.normal(0.0, 5.0, 3))
-    coefficient = F32(rng.uniform(0.5, 2.0))
+    drag, lift, density = F32(rng.uniform(0.1, 1.0)), F32(rng.uniform(0.1, 1.0)), F32(rng.uniform(0.05, 0.2))
     force = f32(rng.normal(0.0, 0.01, (n, 3)))
+    share = f32(rng.uniform(0.75, 1.5, n))
     got = force.copy()
-    wind_forces(triangles, air, coefficient, cur, velocity, got)
-    want = ref_wind.wind_forces(triangles, air, coefficient, cur, velocity, force)
-    # per triangle |F| <= c * A * |u| ~ 2 * 0.03 * 15; ~12 roundings; <= 6 triangles a corner
-    atol = 6 * 16 * U * float(coefficient) * 0.05 * 20.0
+    wind_forces(triangles, share, air, drag, lift, density, cur, velocity, got)
+    want = ref_wind.wind_forces(triangles, share, air, drag, lift, density, cur, velocity, force)
+    # ~20 roundings per triangle's force, <= 6 triangles a corner: relative to the largest sum
+    atol = 6 * 32 * U * np.abs(want - force).max()
     assert_close(got, want, atol, "force")
     assert np.abs(want - force).max() > 1000 * atol
 
@@ -126,7 +127,7 @@ def test_wind_forces_match_reference(seed):
 def test_wind_on_a_degenerate_triangle_is_zero():
     cur = f32([[0, 0, 0, 1], [1, 0, 0, 1], [2, 0, 0, 1]])
     force = np.zeros((3, 3), np.float32)
-    wind_forces(np.array([[0, 1, 2]], np.int32), f32([0, 0, 5]), F32(1.0), cur, f32(np.zeros((3, 3))), force)
+    wind_forces(np.array([[0, 1, 2]], np.int32), f32([1, 1, 1]), f32([0, 0, 5]), F32(1.0), F32(1.0), F32(1.0), cur, f32(np.zeros((3, 3))), force)
     assert not force.any()
 
 

@@ -192,7 +192,10 @@ def test_cloth_dropped_on_a_sphere_comes_to_rest_outside_it(steps_per_frame):
     about 2 cm at 1 step per frame."""
     radius, margin = 0.3, 0.01
     centre = np.array([0.2, -radius - margin - 0.05, 0.2])
-    cotton = load_material("cotton", "test")
+    # without lift: the flutter's size is chaotic (a 1e-7 change of the air force moves its
+    # late peak between 2 and 7 cm/s at 2 steps per frame), and cotton's lift, explicit in
+    # this integrator, feeds the alternating mode
+    cotton = replace(load_material("cotton", "test"), lift_coefficient=0.0)
     solver = make_solver(grid_fabric(10, size=0.4, plane="XZ"), cotton, frequency=24.0 * steps_per_frame,
                          colliders=sphere(centre, radius, margin, 0.5))
     closest = []

@@ -29,7 +29,7 @@ def test_free_fall_is_the_discrete_backward_euler_answer():
     g = np.array([0.0, -9.81, 0.0])
     v0 = np.array([0.3, 1.0, -0.2])
     fabric = grid_fabric(6, plane="XZ")
-    still_air = replace(load_material("cotton", "test"), drag_coefficient=0.0)
+    still_air = replace(load_material("cotton", "test"), drag_coefficient=0.0, lift_coefficient=0.0)
     model = build_model("cloth", fabric, still_air, Placement(), 1.0, "Y")
     config = SolverConfig(frequency=fps, precision="float64", cg_tolerance=1e-13, cg_max_iterations=1000)
     solver = ImplicitClothSolver(model, config, Environment(g), StageProfiler(), initial_velocity=v0)

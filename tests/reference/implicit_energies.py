@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tests.reference import air
+
 
 def _skew(c: np.ndarray) -> np.ndarray:
     """[c]x: the matrix with [c]x y = c x y."""
@@ -205,9 +207,11 @@ def hinge_terms(hinges, rest_angle, stiffness, x, v, damping_time, exact):
 
 
 # ----------------------------------------------------------------- drag
-def drag_terms(triangles, x, v, wind, drag):
-    """(force (n,3), df/dv (3n,3n)): f = -drag A |u.n| u per triangle, a third per corner,
-    and the kernel's symmetric df/dv -(drag A |u.n| / 9)(I + n n^T) per corner pair."""
+def drag_terms(triangles, share, x, v, wind, drag, lift, density):
+    """(force (n,3), df/dv (3n,3n)): corner c gets -share_c density G(u, m) of
+    tests/reference/air.py (a third of the triangle's drag and lift times the particle's
+    share, u = mean corner velocity - wind), and the kernel's symmetric drag df/dv
+    -(density C_d |m| |u.n| / 3) sqrt(share_c share_d) (I + n n^T) per corner pair."""
     x = np.asarray(x, np.float64)
     v = np.asarray(v, np.float64)
     n = x.shape[0]
@@ -215,11 +219,17 @@ def drag_terms(triangles, x, v, wind, drag):
     dfdv = np.zeros((3 * n, 3 * n))
     for ids in triangles:
         normal = np.cross(x[ids[1]] - x[ids[0]], x[ids[2]] - x[ids[0]])
-        area = 0.5 * np.linalg.norm(normal)
-        unit = normal / (2 * area)
+        double_area = np.linalg.norm(normal)
+        unit = normal / double_area
         u = v[ids].mean(axis=0) - wind
+        gx, gy, gz, ok = air.triangle_air(*u, *normal, drag, lift)
+        if not ok:
+            continue
+        weight = np.asarray(share, np.float64)[ids]
+        force[ids] += -density * np.outer(weight, [gx, gy, gz])
         un = abs(u @ unit)
-        force[ids] += -drag * area * un * u / 3
         dofs = (3 * ids[:, None] + np.arange(3)).reshape(-1)
-        dfdv[np.ix_(dofs, dofs)] += np.kron(np.ones((3, 3)), -(drag * area * un / 9) * (np.eye(3) + np.outer(unit, unit)))
+        root = np.sqrt(weight)
+        block = -(density * drag * double_area * un / 3) * (np.eye(3) + np.outer(unit, unit))
+        dfdv[np.ix_(dofs, dofs)] += np.kron(np.outer(root, root), block)
     return force, dfdv

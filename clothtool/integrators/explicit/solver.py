@@ -2,12 +2,12 @@
 
 Points with mass, position, velocity and force; springs along the fabric's constraints
 (stretch, shear and bend phases) with stiffness from the material's moduli and damping along
-the spring (``springs``); gravity; wind per triangle along its normal, proportional to its
-area; collisions with the scene's colliders after the position update. Each substep of
+the spring (``springs``); gravity; the air's drag and lift per triangle (the law of
+``clothtool.solver.kernels.air``, as in the other integrators); collisions with the scene's colliders after the position update. Each substep of
 length h = frame_dt / round(frame_dt * solver.frequency):
 
     forces     f = sum of spring forces (+ damping)
-    wind       f += per-triangle wind / air drag (when the material has a drag coefficient)
+    wind       f += per-triangle drag and lift (when the material has a drag or lift coefficient)
     integrate  v += h (g + f / m) ;  x += h v              (pinned particles never move)
     collide    project out of the colliders, inelastic normal velocity, Coulomb friction
 
@@ -15,7 +15,7 @@ The solver drives like ``clothtool.solver.cloth.ClothSolver`` (same constructor,
 iterations and output methods), so the bake can run either. It simulates in world space and
 refuses a tracked (local-space) cloth. It refuses, too, a substep longer than the stability
 limit (``stability``) unless ``config.force`` is set. Not modelled: tethers, motion and
-separation constraints, self- and cloth-cloth collision, sleeping, lift.
+separation constraints, self- and cloth-cloth collision, sleeping.
 """
 
 from __future__ import annotations
@@ -35,8 +35,9 @@ from clothtool.integrators.explicit.kernels.explicit_collide import (
 from clothtool.integrators.explicit.kernels.explicit_integrate import symplectic_euler
 from clothtool.integrators.explicit.kernels.explicit_springs import spring_forces, spring_forces_sets
 from clothtool.integrators.explicit.kernels.explicit_wind import wind_forces
-from clothtool.integrators.explicit.springs import spring_damping, spring_stiffness, wind_coefficient
+from clothtool.integrators.explicit.springs import air_density, spring_damping, spring_stiffness
 from clothtool.integrators.explicit.stability import stability_report
+from clothtool.solver.air import corner_shares
 from clothtool.solver.cloth import ClothState
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.sleep import SleepState
@@ -108,8 +109,11 @@ class ExplicitClothSolver:
 
         material = model.material
         density = float(getattr(environment, "fluid_density", 1.0))
-        self.has_wind = material.drag_coefficient > 0 and density > 0 and model.triangles.shape[0] > 0
-        self.wind_coefficient = dtype.type(wind_coefficient(model, density) if self.has_wind else 0.0)
+        self.has_wind = (material.drag_coefficient > 0 or material.lift_coefficient > 0) and density > 0 and model.triangles.shape[0] > 0
+        self.air_density = dtype.type(air_density(model, density) if self.has_wind else 0.0)
+        self.air_share = corner_shares(model).astype(dtype)
+        self.drag = dtype.type(material.drag_coefficient)
+        self.lift = dtype.type(material.lift_coefficient)
         sampler = collider_sampler(environment)
         self.colliders = None
         if sampler is not None:
@@ -186,7 +190,7 @@ class ExplicitClothSolver:
         else:
             spring_forces(*springs, cur, velocity, force)
         if self.has_wind:
-            wind_forces(model.triangles[:0], np.zeros(3, dtype), zero, cur, velocity, force)
+            wind_forces(model.triangles[:0], self.air_share, np.zeros(3, dtype), zero, zero, zero, cur, velocity, force)
         symplectic_euler(np.zeros(3, dtype), zero, force, cur, prev, velocity)
         if self.colliders is not None:
             v4, v3, v1 = np.zeros((0, 4), dtype), np.zeros((0, 3), dtype), np.zeros(0, dtype)
@@ -230,7 +234,7 @@ class ExplicitClothSolver:
 
     def _wind(self, time: float) -> None:
         air = self.environment.wind_at(time).astype(self.dtype)
-        wind_forces(self.model.triangles, air, self.wind_coefficient, self.state.cur, self.velocity, self.force)
+        wind_forces(self.model.triangles, self.air_share, air, self.drag, self.lift, self.air_density, self.state.cur, self.velocity, self.force)
 
     def _collide(self, alpha: float, h) -> None:
         c = self.colliders

@@ -53,15 +53,17 @@ def spring_damping(model, stiffness: np.ndarray) -> np.ndarray:
     return 2.0 * zeta * np.sqrt(stiffness * m_eff)
 
 
-def wind_coefficient(model, fluid_density: float) -> float:
-    """Linear air drag per unit area and unit normal speed, in scene units (c_w s^2).
+def air_density(model, fluid_density: float) -> float:
+    """The air law's coefficient rho s^3 / 12 (``kernels.explicit_wind``): with it the force on
+    each corner of a triangle is in kg scene-units/s^2 for lengths in scene units."""
+    return float(fluid_density) * model.units_to_meters**3 / 12.0
 
-    c_w = fluid_density * Material.drag_coefficient, read as kg/(m^2 s): a triangle of area A
-    whose normal velocity relative to the air is u_n feels c_w A u_n along its normal. The
-    talk's wind force is linear in the wind (normal * (normal . wind)); its coefficient has no
-    physical name, so the material's drag coefficient times the air density stands in.
-    """
-    return float(fluid_density) * float(model.material.drag_coefficient) * model.units_to_meters**2
+
+def air_damping(model, fluid_density: float, speed: float) -> float:
+    """Drag per unit area and unit normal speed of the quadratic law linearised at the relative
+    speed ``speed`` (scene units/s), scene units: d/du of 1/2 rho C_d s^3 |u| u for a face
+    moving along its normal, rho C_d s^3 speed."""
+    return float(fluid_density) * float(model.material.drag_coefficient) * model.units_to_meters**3 * float(speed)
 
 
 def triangle_areas(pos: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -33,7 +33,7 @@ M_i = sum_e mu_ie P_e + (rest), with
 
 (s_e = k_e and P_e = d d^T for a spring along d; for C also the wind stage's drag, s_t =
 c_w A_t / 9 and P_t = n n^T per triangle, whose corners feel -(c_w A_t / 3) n n^T of its
-mean velocity); each element's own eigenvalue is then sum_{j in e} lambda_j / m_j, and
+mean velocity, with c_w the quadratic drag linearised at the wind's speed); each element's own eigenvalue is then sum_{j in e} lambda_j / m_j, and
 
     Lambda = max over elements e of sum_{free j in e} lambda_j / m_j  >=  the cloth's eigenvalue
 
@@ -46,8 +46,9 @@ springs turn, and a stretched spring adds transverse stiffness k (1 - L/l); the 
 NaN / max-speed check catches what that costs. ``any_configuration`` gives the bound that
 holds in every configuration (block Gershgorin, direction-free: row sums of
 k_ij (1/m_i + 1/sqrt(m_i m_j))), about 1.4x (2x in omega^2) below the rest-state figure on a
-sheet. The drag's dependence on the normal's rotation is left out (of order c_w |wind| per
-unit length, far below the springs).
+sheet. The drag's dependence on the normal's rotation and on the cloth's own speed through
+the air are left out (of order rho C_d |u| / areal density, tens per second at a few metres
+per second, far below the springs' damping rates).
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ import math
 
 import numpy as np
 
-from clothtool.integrators.explicit.springs import spring_damping, spring_stiffness, triangle_areas, wind_coefficient
+from clothtool.integrators.explicit.springs import air_damping, spring_damping, spring_stiffness, triangle_areas
 
 # A substep longer than FACTOR * h_max is refused (without --force): the bound is an upper
 # bound of the rest state's fastest mode, so 1.0 lets no setting through that is unstable at rest.
@@ -70,10 +71,12 @@ def step_limit(lambda_k: float, gamma: float) -> float:
 
 
 def drag_coefficient(model, environment) -> float:
-    """The wind stage's drag per unit area in scene units, 0 when it does not run."""
+    """The wind stage's drag per unit area in scene units, linearised at the wind's speed at
+    the start (0 in still air or when the stage does not run; module docstring)."""
     if environment is None or not model.material.drag_coefficient > 0:
         return 0.0
-    return wind_coefficient(model, getattr(environment, "fluid_density", 1.0))
+    speed = float(np.linalg.norm(environment.wind_at(0.0))) / model.units_to_meters
+    return air_damping(model, getattr(environment, "fluid_density", 1.0), speed)
 
 
 def _spring_directions(model) -> tuple[np.ndarray, np.ndarray]:

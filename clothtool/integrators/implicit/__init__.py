@@ -7,7 +7,7 @@ Modules, in the order a step uses them:
 * ``pattern``: the fixed 3x3-block sparsity pattern of the system matrix, the colouring of
   elements into particle-disjoint groups (parallel assembly without conflicts), the edges.
 * ``kernels.implicit_energies``: the stretch, shear and bend conditions (forces, df/dx,
-  df/dv) accumulated straight into the system matrix, and air drag.
+  df/dv) accumulated straight into the system matrix, and air drag and lift.
 * ``kernels.implicit_cg``: the block-sparse matrix-vector product and the filtered,
   block-Jacobi preconditioned conjugate gradient.
 * ``collision`` (packing) and ``kernels.implicit_collision``: collider distances and

@@ -30,10 +30,11 @@ Units and material parameters:
   config.stiffness_frequency (NvCloth gives damping per stiffness-frequency step): for cotton
   (0.1 at 100 Hz) 1 ms, which damps stretch vibrations critically and leaves the slow
   swinging of the cloth alone; rigid motion is not damped;
-* air drag (only with a drag coefficient), as the position-based solver's wind stage:
-  1/2 rho C_d A |cos| |u| u per triangle, u its velocity relative to the wind, with
-  rho = environment.fluid_density (kg/m^3) and C_d = material.drag_coefficient; lift is
-  ignored;
+* air drag and lift (only with a drag or lift coefficient), as the position-based solver's
+  wind stage (the law of ``clothtool.solver.kernels.air``): 1/2 rho C_d A |cos| |u| u per
+  triangle plus lift, u its velocity relative to the wind, a third on each corner, with
+  rho = environment.fluid_density (kg/m^3) and the material's C_d and C_l; the drag enters
+  the system matrix, the lift (at right angles to the motion) stays explicit;
 * collisions use the material's thickness and stretch modulus (the repulsion spring) and the
   colliders' margins and friction.
 
@@ -67,6 +68,7 @@ from clothtool.integrators.implicit.kernels.implicit_strain import limit_strain
 from clothtool.integrators.implicit.pattern import build_pattern, color_elements, triangle_edges
 from clothtool.integrators.implicit.rest import build_rest_shape, triangle_corner_uvs
 from clothtool.profile import StageProfiler
+from clothtool.solver.air import corner_shares
 from clothtool.solver.config import SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.iteration import FramePlan, Iteration
@@ -95,12 +97,19 @@ class ImplicitParameters:
     shear: float  # N/m
     bend: float  # D / L^2
     damping_time: float  # s
-    drag: float  # 1/2 rho C_d L^3 (force in kg scene-units/s^2 for areas and speeds in scene units)
+    drag: float  # C_d
+    lift: float  # C_l
+    air_density: float  # rho L^3 / 12 (the air law's corner force in kg scene-units/s^2, scene units)
     thickness: float  # scene units
     repulsion: float  # N/m
     strain_limit: float  # largest edge stretch kept after a step (0 = no limit)
     cg_tolerance: float  # relative residual
     cg_max_iterations: int
+
+    @property
+    def has_air(self) -> bool:
+        """Whether the air law has anything to do (a drag or lift coefficient and air)."""
+        return (self.drag > 0 or self.lift > 0) and self.air_density > 0
 
     @classmethod
     def of(cls, model: ClothModel, config: SolverConfig, environment: Environment) -> "ImplicitParameters":
@@ -112,7 +121,9 @@ class ImplicitParameters:
             shear=float(material.shear_modulus),
             bend=float(material.bend_modulus) / (to_m * to_m),
             damping_time=float(material.damping) / float(config.stiffness_frequency),
-            drag=0.5 * float(environment.fluid_density) * float(material.drag_coefficient) * to_m**3,
+            drag=float(material.drag_coefficient),
+            lift=float(material.lift_coefficient),
+            air_density=float(environment.fluid_density) * to_m**3 / 12.0,
             thickness=float(material.thickness) / to_m,
             repulsion=float(material.stretch_modulus),
             strain_limit=float(getattr(config, "strain_limit", 0.1)),
@@ -162,6 +173,7 @@ class ImplicitClothSolver:
 
         # static data
         self.rest = build_rest_shape(model.rest_pos, model.triangles, triangle_corner_uvs(model.fabric))
+        self.air_share = corner_shares(model).astype(np.float64)
         self.pattern = build_pattern(n, self.rest.triangles, self.rest.hinges)
         self.triangle_colors = color_elements(self.rest.triangles, n)
         self.hinge_colors = color_elements(self.rest.hinges, n)
@@ -234,9 +246,9 @@ class ImplicitClothSolver:
                        no_offsets, none3, none3, 1.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0, False, none3, none3, blocks)
         hinge_terms(rest.hinges[:0], rest.hinge_rest_angle[:0], rest.hinge_weight[:0], pattern.hinge_slot[:0], no_order,
                     no_offsets, none3, none3, 1.0, 0.0, 1.0, 1.0, none3, none3, blocks)
-        if self.params.drag > 0:
-            drag_terms(rest.triangles[:0], pattern.triangle_slot[:0], no_order, no_offsets, none3, none3, np.zeros(3),
-                       1.0, 1.0, none3, blocks)
+        if self.params.has_air:
+            drag_terms(rest.triangles[:0], pattern.triangle_slot[:0], no_order, no_offsets, self.air_share, none3, none3,
+                       np.zeros(3), 1.0, 1.0, 1.0, 1.0, none3, blocks)
         block_jacobi(pattern.diagonal_slot[:0], blocks, self.free[:0], self.inverse[:0])
         filtered_pcg(no_offsets, pattern.columns[:0], blocks, self.inverse[:0], self.free[:0], none3, 1e-6, 0.0, 1,
                      none3, none3, none3, none3, none3, self._partial)
@@ -327,10 +339,11 @@ class ImplicitClothSolver:
         triangle_terms(rest.triangles, rest.tri_dinv, rest.tri_area, pattern.triangle_slot, order, offsets, self.x,
                        self.v, p.stretch, p.stretch, p.compression, p.shear, p.damping_time, h * h, h, False, self.force,
                        self.jacobian_v, self.blocks)
-        if p.drag > 0:
+        if p.has_air:
             wind = np.asarray(self.environment.wind_at(time), np.float64)
-            drag_terms(rest.triangles, pattern.triangle_slot, order, offsets, self.x, self.v, wind, p.drag, h,
-                       self.force, self.blocks)
+            drag_terms(rest.triangles, pattern.triangle_slot, order, offsets, self.air_share, self.x, self.v, wind, p.drag,
+                       p.lift,
+                       p.air_density, h, self.force, self.blocks)
         order, offsets = self.hinge_colors
         hinge_terms(rest.hinges, rest.hinge_rest_angle, rest.hinge_weight, pattern.hinge_slot, order, offsets, self.x,
                     self.v, p.bend, p.damping_time, h * h, h, self.force, self.jacobian_v, self.blocks)

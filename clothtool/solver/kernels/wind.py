@@ -1,19 +1,25 @@
-"""Wind, drag and lift per triangle: the seed's applyWind, term for term.
+"""Wind, drag and lift per triangle: the seed's applyWind with the physical air law.
 
 For each triangle, d is the motion of its centre over the iteration relative to the air
-(plus the reference frame's motion at the centre); the lift and drag impulses are
+(plus the reference frame's motion at the centre), m = (c2 - c0) x (c1 - c0) its unnormalised
+normal, and each corner i moves by
 
-    i_lift = c_lift cos(t) sin(t) l_dir |d| / dt      l_dir = ((d x n) x d) / |d|
-    i_drag = c_drag |cos(t)| d |d| / dt
-    i      = (i_lift + i_drag) * rho * a               (a = twice the triangle area)
+    -w_i * share_i * density * G(d, m)   G of clothtool.solver.kernels.air, density = rho s^3 / 12
 
-and each particle moves by -i times its inverse mass. Below |d|^2 < FLT_EPSILON the impulse
-is zero (float division is unreliable there), which the seed notes makes slow cloth feel
-less drag at high solver frequencies.
+which is F h^2 w_i / 3 (times the particle's share, clothtool.solver.air: 1 on a triangle
+mesh) for the triangle's force F = -1/2 rho A (C_d |cos| |v| v + lift) at the
+velocity v = d / h (in metres: s^3 because G has d twice and m once): each corner takes a
+third of its triangle's force (air.py says why a third), so the step length cancels and
+nothing depends on the solver frequency. (The seed moves every corner by the whole
+triangle's impulse, three times the force, and skips triangles with |d|^2 < FLT_EPSILON,
+which is every triangle slower than 1.33 m/s at 3840 Hz; neither is kept.) Only a triangle
+without area or relative motion gets no push.
 
-One guard beyond the seed: the impulse is scaled down so that it moves the triangle's centre
+One guard beyond the seed: the push is scaled down so that it moves the triangle's centre
 by at most |d|. Air can at most stop a triangle's motion relative to it; the explicit
-impulse would otherwise overshoot and grow without bound on light cloth in fast air.
+push would otherwise overshoot and grow without bound on light cloth in fast air. It never
+acts near the terminal speed (the push per iteration is then g h^2, |d| is v h, and g h is
+far below any terminal speed), so it does not bias the drag law.
 
 As in the seed, each triangle moves its particles before later triangles read them. The
 triangles come in colours (``color_offsets``): the triangles of a colour share no particle, so
@@ -30,17 +36,18 @@ import numpy as np
 
 from clothtool._jit import kernel
 from clothtool._simd import fill, lane, load4, vadd, vmul, vsub
+from clothtool.solver.kernels.air import triangle_air
 
-FLT_EPSILON = np.float32(1.1920929e-07)
 BLOCK = 128
 # rows of the per-block scratch, BLOCK apart: constant offsets let LLVM see they never overlap
 _D0, _D1, _D2, _NX, _NY, _NZ, _W = 0, 1, 2, 3, 4, 5, 6
 
 
 @kernel(inline="always")
-def _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev, scratch):
+def _gather(triangles, share, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev, scratch):
     """Per triangle lo..hi of a colour: its centre's motion d relative to the air (with the
-    frame's motion at the centre), its unnormalised normal and its particles' mean inverse mass."""
+    frame's motion at the centre), its unnormalised normal and the mean over its corners of
+    inverse mass times share."""
     third = np.float32(1.0 / 3.0)
     for t in range(lo, hi):
         j = t - lo
@@ -67,58 +74,43 @@ def _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, cur, prev
         scratch[_NX * BLOCK + j] = e1y * e2z - e1z * e2y
         scratch[_NY * BLOCK + j] = e1z * e2x - e1x * e2z
         scratch[_NZ * BLOCK + j] = e1x * e2y - e1y * e2x
-        scratch[_W * BLOCK + j] = (lane(p0, 3) + lane(p1, 3) + lane(p2, 3)) * third
+        w0 = lane(p0, 3) * share[triangles[t, 0]]
+        w1 = lane(p1, 3) * share[triangles[t, 1]]
+        w2 = lane(p2, 3) * share[triangles[t, 2]]
+        scratch[_W * BLOCK + j] = (w0 + w1 + w2) * third
 
 
 @kernel(inline="always")
-def _impulses(count, inv_dt, drag, lift, density, scratch, impulse):
-    """impulse[k * BLOCK + j] = component k of triangle j's impulse (0 below the epsilon or
-    for a degenerate triangle), from the gathered scratch."""
+def _impulses(count, drag, lift, density, scratch, impulse):
+    """impulse[k * BLOCK + j] = component k of triangle j's push per unit inverse mass (0
+    without motion or area), from the gathered scratch."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
     for j in range(count):
         d0 = scratch[_D0 * BLOCK + j]
         d1 = scratch[_D1 * BLOCK + j]
         d2 = scratch[_D2 * BLOCK + j]
-        nx = scratch[_NX * BLOCK + j]
-        ny = scratch[_NY * BLOCK + j]
-        nz = scratch[_NZ * BLOCK + j]
-        double_area = np.sqrt(nx * nx + ny * ny + nz * nz)
-        length_sqr = d0 * d0 + d1 * d1 + d2 * d2
-        skip = (length_sqr < FLT_EPSILON) | (double_area == zero)
-        nx /= double_area
-        ny /= double_area
-        nz /= double_area
-        length = np.sqrt(length_sqr)
-        cos_theta = (nx * d0 + ny * d1 + nz * d2) / length
-        sin_theta = np.sqrt(max(zero, one - cos_theta * cos_theta))
-        # (d x n) x d / |d|
-        ax = d1 * nz - d2 * ny
-        ay = d2 * nx - d0 * nz
-        az = d0 * ny - d1 * nx
-        lx = (ay * d2 - az * d1) / length
-        ly = (az * d0 - ax * d2) / length
-        lz = (ax * d1 - ay * d0) / length
-        lift_scale = lift * cos_theta * sin_theta * length * inv_dt
-        drag_scale = drag * abs(cos_theta) * length * inv_dt
-        scale = density * double_area
-        ix = (lift_scale * lx + drag_scale * d0) * scale
-        iy = (lift_scale * ly + drag_scale * d1) * scale
-        iz = (lift_scale * lz + drag_scale * d2) * scale
+        gx, gy, gz, ok = triangle_air(d0, d1, d2, scratch[_NX * BLOCK + j], scratch[_NY * BLOCK + j],
+                                      scratch[_NZ * BLOCK + j], drag, lift)
+        ix = gx * density
+        iy = gy * density
+        iz = gz * density
+        length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         shift = np.sqrt(ix * ix + iy * iy + iz * iz) * scratch[_W * BLOCK + j]
         limit = length / shift if shift > length else one
-        impulse[j] = zero if skip else ix * limit
-        impulse[BLOCK + j] = zero if skip else iy * limit
-        impulse[2 * BLOCK + j] = zero if skip else iz * limit
+        impulse[j] = ix * limit if ok else zero
+        impulse[BLOCK + j] = iy * limit if ok else zero
+        impulse[2 * BLOCK + j] = iz * limit if ok else zero
 
 
 @kernel
-def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset, inv_dt, drag, lift, density, cur, prev):
+def apply_wind(triangles, color_offsets, share, frame_matrix, frame_offset, air_offset, drag, lift, density, cur, prev):
     """triangles (t,3), in colours: triangles[color_offsets[k]:color_offsets[k+1]] share no
-    particle; frame_matrix (3,3), frame_offset (3,): the frame's motion over the iteration at
+    particle; share (n,): each particle's share in its triangles' force
+    (``clothtool.solver.air``, 1 for a triangle mesh); frame_matrix (3,3), frame_offset (3,): the frame's motion over the iteration at
     a point x is frame_matrix @ x + frame_offset; air_offset (3,): wind velocity * dt in local
-    space; drag, lift: per-iteration coefficients; density: fluid density (NvCloth's,
-    compensating for the doubled area)."""
+    space; drag, lift: the aerodynamic coefficients C_d, C_l; density: rho s^3 / 12 (air
+    density rho in kg/m^3, s metres per scene unit; the module docstring says why)."""
     flat = cur.reshape(-1)
     flat_prev = prev.reshape(-1)
     scratch = np.empty(7 * BLOCK, cur.dtype)
@@ -130,13 +122,14 @@ def apply_wind(triangles, color_offsets, frame_matrix, frame_offset, air_offset,
             # unsigned indices: no negative-index wraparound code, which blocks vectorisation
             lo = np.uintp(first + block * BLOCK)
             hi = np.uintp(first + min(block * BLOCK + BLOCK, size))
-            _gather(triangles, lo, hi, frame_matrix, frame_offset, air_offset, flat, flat_prev, scratch)
-            _impulses(hi - lo, inv_dt, drag, lift, density, scratch, impulse)
+            _gather(triangles, share, lo, hi, frame_matrix, frame_offset, air_offset, flat, flat_prev, scratch)
+            _impulses(hi - lo, drag, lift, density, scratch, impulse)
             for t in range(lo, hi):
                 j = t - lo
                 for corner in range(3):
-                    i = 4 * triangles[t, corner]
-                    w = flat[i + 3]
+                    k = triangles[t, corner]
+                    i = 4 * k
+                    w = flat[i + 3] * share[k]
                     flat[i] -= impulse[j] * w
                     flat[i + 1] -= impulse[BLOCK + j] * w
                     flat[i + 2] -= impulse[2 * BLOCK + j] * w

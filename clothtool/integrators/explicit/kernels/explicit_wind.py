@@ -1,19 +1,20 @@
-"""Wind per triangle (the talk's "Wind Forces"), accumulated into a force array.
+"""Wind and air drag per triangle, accumulated into a force array: the air law of
+``clothtool.solver.kernels.air``, as the position-based wind stage and the implicit
+integrator apply it.
 
-The talk takes the triangle normal from a cross product, scales the (unit) normal by its dot
-product with the wind and adds that to the triangle's points, noting that the force is
-proportional to the triangle's area. Here, for a triangle (x0, x1, x2):
+For a triangle (x0, x1, x2) with m = (x1 - x0) x (x2 - x0) and u = (v0 + v1 + v2) / 3 - wind
+(its motion relative to the air), each corner receives
 
-    m = (x1 - x0) x (x2 - x0),  A = |m| / 2,  n = m / |m|
-    u = wind - (v0 + v1 + v2) / 3                 (the air seen by the moving triangle)
-    F = coefficient * A * (n . u) * n             (along the normal, proportional to area)
+    -share_i * density * G(u, m)      density = rho s^3 / 12 (force in kg scene-units/s^2)
 
-and each corner receives F / 3, so that the corners together feel the triangle's force (the
-talk adds the whole force to each point). The sign of n does not matter (F has n twice);
-with u = 0 the wind is still air and F is the air drag on the moving cloth. A degenerate
-triangle (|m| = 0) feels nothing. Pinned particles' slots are written too (the integrator
-never reads them). The loop is sequential (triangles share corners); it reads positions and
-velocities only, so the order changes the rounding of the sums, nothing else.
+a third of the triangle's drag and lift (times the particle's share, ``clothtool.solver.air``:
+1 on a triangle mesh) 1/2 rho C A |u|^2 (with its angle terms). (The talk
+adds a force linear in the wind along the normal to each point; the law here is the same
+quadratic drag and lift in all three integrators.) With still air it is the drag on the
+moving cloth; a triangle without area or relative motion feels nothing. Pinned particles'
+slots are written too (the integrator never reads them). The loop is sequential (triangles
+share corners); it reads positions and velocities only, so the order changes the rounding
+of the sums, nothing else.
 """
 
 from __future__ import annotations
@@ -21,16 +22,16 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool.solver.kernels.air import triangle_air
 
 
 @kernel
-def wind_forces(triangles, air, coefficient, cur, velocity, force):
-    """triangles (t,3); air (3,) wind velocity (scene units/s); coefficient: drag per unit
-    area and unit normal speed (scene units, kg/(units^2 s)); cur (n,4); velocity (n,3);
-    force (n,3) is added to."""
-    zero = np.float32(0.0)
+def wind_forces(triangles, share, air, drag, lift, density, cur, velocity, force):
+    """triangles (t,3); share (n,): each particle's share in its triangles' force
+    (``clothtool.solver.air``, 1 for a triangle mesh); air (3,) wind velocity (scene units/s); drag, lift: the aerodynamic
+    coefficients C_d, C_l; density: rho s^3 / 12 (rho in kg/m^3, s metres per scene unit);
+    cur (n,4); velocity (n,3); force (n,3) is added to."""
     third = np.float32(1.0 / 3.0)
-    sixth = np.float32(1.0 / 6.0)
     for t in range(triangles.shape[0]):
         i0 = triangles[t, 0]
         i1 = triangles[t, 1]
@@ -41,26 +42,25 @@ def wind_forces(triangles, air, coefficient, cur, velocity, force):
         e2x = cur[i2, 0] - cur[i0, 0]
         e2y = cur[i2, 1] - cur[i0, 1]
         e2z = cur[i2, 2] - cur[i0, 2]
-        mx = e1y * e2z - e1z * e2y
-        my = e1z * e2x - e1x * e2z
-        mz = e1x * e2y - e1y * e2x
-        double_area = np.sqrt(mx * mx + my * my + mz * mz)
-        if double_area == zero:
+        ux = (velocity[i0, 0] + velocity[i1, 0] + velocity[i2, 0]) * third - air[0]
+        uy = (velocity[i0, 1] + velocity[i1, 1] + velocity[i2, 1]) * third - air[1]
+        uz = (velocity[i0, 2] + velocity[i1, 2] + velocity[i2, 2]) * third - air[2]
+        gx, gy, gz, ok = triangle_air(ux, uy, uz, e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x,
+                                      drag, lift)
+        if not ok:
             continue
-        ux = air[0] - (velocity[i0, 0] + velocity[i1, 0] + velocity[i2, 0]) * third
-        uy = air[1] - (velocity[i0, 1] + velocity[i1, 1] + velocity[i2, 1]) * third
-        uz = air[2] - (velocity[i0, 2] + velocity[i1, 2] + velocity[i2, 2]) * third
-        # coefficient * A * (n . u) * n / 3 with A = |m| / 2 and n = m / |m|: c (m . u) m / (6 |m|)
-        scale = coefficient * sixth * (mx * ux + my * uy + mz * uz) / double_area
-        fx = scale * mx
-        fy = scale * my
-        fz = scale * mz
-        force[i0, 0] += fx
-        force[i0, 1] += fy
-        force[i0, 2] += fz
-        force[i1, 0] += fx
-        force[i1, 1] += fy
-        force[i1, 2] += fz
-        force[i2, 0] += fx
-        force[i2, 1] += fy
-        force[i2, 2] += fz
+        fx = -density * gx
+        fy = -density * gy
+        fz = -density * gz
+        s0 = share[i0]
+        s1 = share[i1]
+        s2 = share[i2]
+        force[i0, 0] += fx * s0
+        force[i0, 1] += fy * s0
+        force[i0, 2] += fz * s0
+        force[i1, 0] += fx * s1
+        force[i1, 1] += fy * s1
+        force[i1, 2] += fz * s1
+        force[i2, 0] += fx * s2
+        force[i2, 1] += fy * s2
+        force[i2, 2] += fz * s2

@@ -38,6 +38,7 @@ from numba.extending import register_jitable as jitable
 
 from clothtool._jit import kernel
 from clothtool.integrators.implicit import vec
+from clothtool.solver.kernels.air import triangle_air
 
 
 @jitable
@@ -219,15 +220,20 @@ def hinge_terms(hinges, hinge_rest_angle, hinge_weight, hinge_slot, order, offse
                    x_weight, v_weight, force, jacobian_v, blocks)
 
 
-# ----------------------------------------------------------------- air drag
+# ----------------------------------------------------------------- air drag and lift
 @kernel(parallel=True)
-def drag_terms(triangles, triangle_slot, order, offsets, x, v, wind, drag, v_weight, force, blocks):
-    """Quadratic air drag on each triangle, as the position-based solver's wind stage:
-    f = -drag A |u.n| u (1/2 rho C_d A |cos| |u| u) with u the mean corner velocity minus
-    ``wind`` (3,), n the unit normal and A the current area, split evenly over the corners.
-    df/dv per corner pair: -(drag A |u.n| / 9) (I + n n^T), the symmetric positive part of
-    the exact -(drag A / 9) (|u.n| I + sign(u.n) u n^T) (equal to it for a face moving
-    along its normal; n's dependence on x is ignored). Adds -v_weight df/dv into blocks."""
+def drag_terms(triangles, triangle_slot, order, offsets, share, x, v, wind, drag, lift, density, v_weight, force, blocks):
+    """Air drag and lift on each triangle, the law of ``clothtool.solver.kernels.air`` as the
+    position-based wind stage applies it: corner c gets -share_c density G(u, m), a third of
+    -1/2 rho A (C_d |u.n| u + lift) times its share (``clothtool.solver.air``, 1 on a
+    triangle mesh), with u the mean corner velocity minus ``wind`` (3,), m the
+    unnormalised normal (n = m / |m|, A = |m| / 2) and density = rho s^3 / 12.
+    df/dv per corner pair (c, d), of the drag only: -(density C_d |m| |u.n| / 3)
+    sqrt(share_c share_d) (I + n n^T), the symmetric positive part of the exact
+    -(density C_d |m| / 3) share_c (|u.n| I + sign(u.n) u n^T) (equal to it for a face moving
+    along its normal on a triangle mesh; n's dependence on x is ignored). The
+    lift, at right angles to the motion, does no work and is left explicit. Adds -v_weight
+    df/dv into blocks."""
     third = 1.0 / 3.0
     for color in range(offsets.shape[0] - 1):
         for e in prange(offsets[color], offsets[color + 1]):
@@ -235,18 +241,20 @@ def drag_terms(triangles, triangle_slot, order, offsets, x, v, wind, drag, v_wei
             ids = (triangles[t, 0], triangles[t, 1], triangles[t, 2])
             x0 = vec.row(x, ids[0])
             normal = vec.cross(vec.sub(vec.row(x, ids[1]), x0), vec.sub(vec.row(x, ids[2]), x0))
-            double_area = math.sqrt(vec.dot(normal, normal))
-            if double_area == 0.0:
-                continue
-            n = vec.scale(1.0 / double_area, normal)
             u = vec.scale(third, vec.axpy(1.0, vec.row(v, ids[0]), vec.axpy(1.0, vec.row(v, ids[1]), vec.row(v, ids[2]))))
             u = vec.sub(u, (wind[0], wind[1], wind[2]))
+            gx, gy, gz, ok = triangle_air(u[0], u[1], u[2], normal[0], normal[1], normal[2], drag, lift)
+            if not ok:
+                continue
+            double_area = math.sqrt(vec.dot(normal, normal))
+            n = vec.scale(1.0 / double_area, normal)
             un = abs(vec.dot(u, n))
-            area = 0.5 * double_area
-            corner_scale = -drag * area * un * third
-            slope = v_weight * drag * area * un / 9.0
+            slope = v_weight * density * drag * double_area * un * third
+            g = (gx, gy, gz)
             slots = triangle_slot[t]
+            root = (math.sqrt(share[ids[0]]), math.sqrt(share[ids[1]]), math.sqrt(share[ids[2]]))
             for c in range(3):
-                vec.add_row(force, ids[c], corner_scale, u)
+                vec.add_row(force, ids[c], -density * share[ids[c]], g)
                 for d in range(3):
-                    _add_outer(blocks, slots[3 * c + d], slope, n, n, slope)
+                    pair = slope * root[c] * root[d]
+                    _add_outer(blocks, slots[3 * c + d], pair, n, n, pair)
