@@ -200,8 +200,6 @@ def _does_without(scene: Scene, solver: Integrator) -> dict:
     unused = {}
     if "tethers" in spec.does_without and model.has_tethers and model.material.tether_stiffness > 0:
         unused["tethers"] = spec.does_without["tethers"]
-    if "lift" in spec.does_without and model.material.lift_coefficient > 0:
-        unused["lift"] = spec.does_without["lift"]
     return {"does_without": unused} if unused else {}
 
 

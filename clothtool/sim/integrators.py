@@ -85,16 +85,15 @@ class IntegratorSpec:
 
 
 _FORCES_HOLD = "the stretch forces and the strain limit hold the cloth; tethers are a position-based device"
-_NO_LIFT = "air acts as drag along the triangle's normal only (the material's lift coefficient is a position-based setting)"
 REGISTRY: dict[str, IntegratorSpec] = {
     "pbd": IntegratorSpec("pbd", "clothtool.solver.cloth", "ClothSolver", frozenset(CAPABILITIES)),
     "implicit": IntegratorSpec(
         "implicit", "clothtool.integrators.implicit.solver", "ImplicitClothSolver", frozenset({"motion"}),
-        {"tethers": _FORCES_HOLD, "lift": _NO_LIFT},
+        {"tethers": _FORCES_HOLD},
     ),
     "explicit": IntegratorSpec(
         "explicit", "clothtool.integrators.explicit.solver", "ExplicitClothSolver", frozenset(),
-        {"tethers": "spring forces hold the cloth; tethers are a position-based device", "lift": _NO_LIFT},
+        {"tethers": "spring forces hold the cloth; tethers are a position-based device"},
     ),
 }
 

@@ -14,8 +14,9 @@ length h = frame_dt / round(frame_dt * solver.frequency):
 The solver drives like ``clothtool.solver.cloth.ClothSolver`` (same constructor, frame plan,
 iterations and output methods), so the bake can run either. It simulates in world space and
 refuses a tracked (local-space) cloth. It refuses, too, a substep longer than the stability
-limit (``stability``) unless ``config.force`` is set. Not modelled: tethers, motion and
-separation constraints, self- and cloth-cloth collision, sleeping.
+limit (``stability``) unless ``config.force`` is set. Not modelled (its capabilities in
+``clothtool.sim.integrators``; a scene that asks for them is refused): motion and separation
+constraints, continuous, self- and cloth-cloth collision, sleeping; tethers go unused.
 """
 
 from __future__ import annotations

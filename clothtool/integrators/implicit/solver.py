@@ -41,9 +41,10 @@ Units and material parameters:
 Safety net: ``strain`` limiting to ``config.strain_limit`` (default 0.1, 0 = off) after the
 solve, because one linear step per frame cannot turn an edge far (see ``kernels.implicit_strain``).
 
-Not done by this integrator: local-space simulation (a cloth that follows a track is
-refused), tethers (the stiff stretch and the strain limit hold the cloth), separation
-(backstop) spheres, self- and cloth-cloth collision, and sleeping. Motion constraints are a
+Not done by this integrator (its capabilities in ``clothtool.sim.integrators``; a scene that
+asks for them is refused): local-space simulation (a cloth that follows a track), separation
+(backstop) spheres, continuous, self- and cloth-cloth collision, and sleeping; tethers go
+unused (the stiff stretch and the strain limit hold the cloth). Motion constraints are a
 projection after the solve: a particle outside its sphere is put back on it and loses its
 outward velocity; a radius of 0 fixes the particle at its rest position.
 
