@@ -47,10 +47,17 @@ from clothtool._jit import kernel
 # a slack below that would make a path along such a row bend at every vertex instead of being
 # one straight segment (measured: 3-16% long on the bundled skirt with 1e-10).
 _SLACK = 1e-6
+_ANGLE_SLACK = 1e-4  # radians
+
+# Label slots per vertex: its shortest label plus the fronts of nearby bend vertices that pass
+# it (an edge half in the shadow of a corner needs the corner's front on both its ends).
+LABELS_PER_VERTEX = 4
 
 
 @kernel
-def _geodesic_from_sources(pos, triangles, vertex_triangle_offsets, vertex_triangles, sources, max_updates):
+def _geodesic_from_sources(
+    pos, triangles, vertex_triangle_offsets, vertex_triangles, sources, can_bend, labels, max_updates
+):
     """Distances from ``sources`` (see the module docstring).
 
     Args:
@@ -58,47 +65,138 @@ def _geodesic_from_sources(pos, triangles, vertex_triangle_offsets, vertex_trian
         triangles: i64 (t,3).
         vertex_triangle_offsets, vertex_triangles: i64 CSR, the triangles around each vertex.
         sources: i64 (s,) source vertices (distance 0, their own root).
-        max_updates: give up after this many vertex pops.
+        can_bend: bool (n,) vertices a shortest path may bend around (sources, reflex boundary
+            vertices, saddles): their straight fronts are kept as extra labels.
+        labels: label slots per vertex.
+        max_updates: give up after this many label pops.
 
     Returns (dist f64 (n,), inf where unreachable; root i64 (n,), -1 where unreachable;
     done bool: False if ``max_updates`` ran out, and the result is then incomplete).
     """
     n = pos.shape[0]
-    dist = np.full(n, np.inf)
-    sigma = np.zeros(n)
-    pseudo = np.full(n, -1, np.int64)
-    root = np.full(n, -1, np.int64)
-    heap = [(0.0, np.int64(0))]
+    lab_pseudo = np.full((n, labels), -1, np.int64)
+    lab_dist = np.full((n, labels), np.inf)
+    lab_sigma = np.zeros((n, labels))
+    lab_root = np.full((n, labels), -1, np.int64)
+    heap = [(0.0, np.int64(0), np.int64(0))]
     heap.pop()
     for s in sources:
-        dist[s] = 0.0
-        pseudo[s] = s
-        root[s] = s
-        heapq.heappush(heap, (0.0, np.int64(s)))
+        lab_pseudo[s, 0] = s
+        lab_dist[s, 0] = 0.0
+        lab_root[s, 0] = s
+        heapq.heappush(heap, (0.0, np.int64(s), np.int64(s)))
     updates = 0
+    done = True
     while len(heap) > 0:
-        d, v = heapq.heappop(heap)
-        if d != dist[v]:
-            continue  # a stale entry: v's value changed and v was pushed again
+        d, v, p = heapq.heappop(heap)
+        slot = _slot_of(lab_pseudo, v, p)
+        if slot < 0 or lab_dist[v, slot] != d:
+            continue  # a stale entry: the label changed or was evicted since
         updates += 1
         if updates > max_updates:
-            return dist, root, False
+            done = False
+            break
+        sigma = lab_sigma[v, slot]
+        root = lab_root[v, slot]
+        shortest = d <= _shortest(lab_dist, v)
         for k in range(vertex_triangle_offsets[v], vertex_triangle_offsets[v + 1]):
             t = vertex_triangles[k]
+            at = _corner_of(triangles, t, v)
             for corner in range(3):
-                u = triangles[t, corner]
-                if u == v:
+                if corner == at:
                     continue
-                c = triangles[t, 3 - corner - _corner_of(triangles, t, v)]
-                # the path bends at v, then straight along the edge v -> u
-                cand = d + np.sqrt(_distance_sq(pos, v, u))
-                _relax(heap, dist, sigma, pseudo, root, u, cand, v, d, root[v])
-                # straight from v's pseudo-source across the edge (v, u) to c
-                if pseudo[u] == pseudo[v] and sigma[u] == sigma[v] and np.isfinite(dist[u]) and c != u:
-                    cand = _unfolded(pos, v, u, c, d - sigma[v], dist[u] - sigma[v])
+                u = triangles[t, corner]
+                c = triangles[t, 3 - corner - at]
+                if shortest:
+                    # the path bends at v, then runs straight along the edge v -> u
+                    cand = d + np.sqrt(_distance_sq(pos, v, u))
+                    _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, u, cand, v, d, root)
+                # straight on from p across the edge (v, u) to c, if u has p's front too
+                j = _slot_of(lab_pseudo, u, p)
+                if j >= 0 and lab_sigma[u, j] == sigma:
+                    cand = _unfolded(pos, v, u, c, d - sigma, lab_dist[u, j] - sigma)
                     if np.isfinite(cand):
-                        _relax(heap, dist, sigma, pseudo, root, c, sigma[v] + cand, pseudo[v], sigma[v], root[v])
-    return dist, root, True
+                        _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, c, sigma + cand, p, sigma, root)
+    dist = np.full(n, np.inf)
+    best_root = np.full(n, -1, np.int64)
+    for v in range(n):
+        best = -1
+        for j in range(labels):
+            if lab_pseudo[v, j] >= 0 and (
+                best < 0
+                or lab_dist[v, j] < lab_dist[v, best]
+                or (lab_dist[v, j] == lab_dist[v, best] and lab_sigma[v, j] < lab_sigma[v, best])
+            ):
+                best = j
+        if best >= 0:
+            dist[v] = lab_dist[v, best]
+            best_root[v] = lab_root[v, best]
+    return dist, best_root, done
+
+
+@kernel(inline="always")
+def _slot_of(lab_pseudo, v, p):
+    """The slot of ``v`` holding pseudo-source ``p``'s label, or -1."""
+    for j in range(lab_pseudo.shape[1]):
+        if lab_pseudo[v, j] == p:
+            return j
+    return -1
+
+
+@kernel(inline="always")
+def _shortest(lab_dist, v):
+    best = np.inf
+    for j in range(lab_dist.shape[1]):
+        best = min(best, lab_dist[v, j])
+    return best
+
+
+@kernel(inline="always")
+def _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, c, cand, p, sigma, root):
+    """Offer vertex ``c`` the label (pseudo-source ``p``, its ``sigma``, length ``cand``).
+
+    A label of ``p`` already at ``c`` is replaced if shorter, or as long and bending less.
+    A new label takes an empty slot, else evicts (in order) a label of a vertex that cannot
+    bend a path and is not ``c``'s shortest, or a longer label. Labels of vertices that cannot
+    bend a path are only taken as ``c``'s new shortest: they keep every vertex reachable (and
+    exact values flowing past obtuse triangles) without crowding out real fronts.
+    """
+    j = _slot_of(lab_pseudo, c, p)
+    if j >= 0:
+        old = lab_dist[c, j]
+        if cand < old * (1.0 - _SLACK) or (cand <= old * (1.0 + _SLACK) and sigma < lab_sigma[c, j] * (1.0 - _SLACK)):
+            _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, j, cand, p, sigma, root)
+        return
+    best = _shortest(lab_dist, c)
+    if not can_bend[p] and not cand < best * (1.0 - _SLACK):
+        return
+    victim = -1
+    plain_victim = -1
+    longest = -1
+    for k in range(lab_pseudo.shape[1]):
+        q = lab_pseudo[c, k]
+        if q < 0:
+            victim = k
+            break
+        if not can_bend[q] and lab_dist[c, k] > best and (plain_victim < 0 or lab_dist[c, k] > lab_dist[c, plain_victim]):
+            plain_victim = k
+        if longest < 0 or lab_dist[c, k] > lab_dist[c, longest]:
+            longest = k
+    if victim >= 0 or (plain_victim >= 0 and can_bend[p]):
+        if victim < 0:
+            victim = plain_victim
+        _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, victim, cand, p, sigma, root)
+    elif cand < lab_dist[c, longest]:
+        _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, longest, cand, p, sigma, root)
+
+
+@kernel(inline="always")
+def _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, j, cand, p, sigma, root):
+    lab_pseudo[c, j] = p
+    lab_dist[c, j] = cand
+    lab_sigma[c, j] = sigma
+    lab_root[c, j] = root
+    heapq.heappush(heap, (cand, np.int64(c), np.int64(p)))
 
 
 @kernel(inline="always")
@@ -151,20 +249,32 @@ def _unfolded(pos, v, u, c, rv, ru):
     return np.sqrt((cx - sx) * (cx - sx) + (cy - sy) * (cy - sy))
 
 
-@kernel(inline="always")
-def _relax(heap, dist, sigma, pseudo, root, c, cand, via, via_sigma, via_root):
-    """Take ``cand`` for vertex ``c`` if it is shorter, or ties and bends less; push ``c``."""
-    current = dist[c]
-    better = cand < current * (1.0 - _SLACK)
-    tie = (not better) and cand <= current * (1.0 + _SLACK) and via_sigma < sigma[c] * (1.0 - _SLACK)
-    if better or tie:
-        # a tie takes the candidate's own value too (at most the slack longer), so a vertex's
-        # distance stays consistent with its pseudo-source for the unfolding that uses it
-        dist[c] = cand
-        sigma[c] = via_sigma
-        pseudo[c] = via
-        root[c] = via_root
-        heapq.heappush(heap, (dist[c], np.int64(c)))
+def bend_vertices(pos: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Vertices a shortest path over the surface may bend around: bool (n,).
+
+    A shortest path through a vertex is straight (it leaves at pi on both sides) unless the
+    surface angle there exceeds 2 pi (a saddle) or, on the boundary, pi (a reflex corner,
+    such as the inner corner of an L or the waist of a skirt seen from its hem). Vertices on
+    non-manifold edges are counted in, which only costs time. ``_ANGLE_SLACK`` keeps the float32
+    roundoff of flat vertices (about 1e-7) out.
+    """
+    n = pos.shape[0]
+    p = pos[triangles]
+    angle_sum = np.zeros(n)
+    for corner in range(3):
+        a = p[:, (corner + 1) % 3] - p[:, corner]
+        b = p[:, (corner + 2) % 3] - p[:, corner]
+        norms = np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1)
+        cosine = np.einsum("ij,ij->i", a, b) / np.where(norms > 0, norms, 1.0)
+        angle_sum += np.bincount(triangles[:, corner], np.arccos(np.clip(cosine, -1.0, 1.0)), n)
+    edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    unique, count = np.unique(edges, axis=0, return_counts=True)
+    boundary = np.zeros(n, bool)
+    boundary[unique[count == 1].reshape(-1)] = True
+    odd = np.zeros(n, bool)
+    odd[unique[count > 2].reshape(-1)] = True
+    full_turn = np.where(boundary, np.pi, 2.0 * np.pi)
+    return (angle_sum > full_turn + _ANGLE_SLACK) | odd
 
 
 def geodesic_distances(
@@ -189,7 +299,10 @@ def geodesic_distances(
     vertex_triangles = (order // 3).astype(np.int64)
     offsets = np.zeros(n + 1, np.int64)
     np.cumsum(np.bincount(triangles.reshape(-1), minlength=n), out=offsets[1:])
+    sources = np.ascontiguousarray(sources, np.int64)
+    can_bend = bend_vertices(pos, triangles)
+    can_bend[sources] = True
     budget = 50 * n + 1 if max_updates is None else int(max_updates)
     return _geodesic_from_sources(
-        pos, triangles, offsets, vertex_triangles, np.ascontiguousarray(sources, np.int64), budget
+        pos, triangles, offsets, vertex_triangles, sources, can_bend, LABELS_PER_VERTEX, budget
     )
