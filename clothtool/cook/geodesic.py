@@ -113,10 +113,29 @@ def _geodesic_from_sources(
                     _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, u, cand, v, d, root)
                 # straight on from p across the edge (v, u) to c, if u has p's front too
                 j = _slot_of(lab_pseudo, u, p)
-                if j >= 0 and lab_sigma[u, j] == sigma:
-                    cand = _unfolded(pos, v, u, c, d - sigma, lab_dist[u, j] - sigma)
-                    if np.isfinite(cand):
-                        _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, c, sigma + cand, p, sigma, root)
+                if j < 0 or lab_sigma[u, j] != sigma:
+                    continue
+                ok, length, cx, cy, sx, sy = _frame(pos, v, u, c, d - sigma, lab_dist[u, j] - sigma)
+                if not ok:
+                    continue
+                if _crosses_edge(sx, sy, cx, cy, length):
+                    cand = sigma + np.hypot(cx - sx, cy - sy)
+                    _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, c, cand, p, sigma, root)
+                    continue
+                # the segment to c misses the edge, but one to a vertex beyond (v, c) or (u, c)
+                # may cross both: the edge (v, u) is then only partly lit by p's front, as next
+                # to the shadow of a corner, and the vertex beyond is reached through it
+                for side in range(2):
+                    a = v if side == 0 else u
+                    ax = 0.0 if side == 0 else length
+                    t2 = _across(triangles, vertex_triangle_offsets, vertex_triangles, t, a, c)
+                    if t2 < 0:
+                        continue
+                    e = triangles[t2, 3 - _corner_of(triangles, t2, a) - _corner_of(triangles, t2, c)]
+                    ok, ex, ey = _place_beyond(pos, a, c, e, ax, cx, cy, length - ax)
+                    if ok and _crosses_edge(sx, sy, ex, ey, length) and _crosses(sx, sy, ex, ey, ax, 0.0, cx, cy):
+                        cand = sigma + np.hypot(ex - sx, ey - sy)
+                        _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, e, cand, p, sigma, root)
     dist = np.full(n, np.inf)
     best_root = np.full(n, -1, np.int64)
     for v in range(n):
@@ -218,35 +237,87 @@ def _distance_sq(pos, a, b):
 
 
 @kernel(inline="always")
-def _unfolded(pos, v, u, c, rv, ru):
-    """Distance to ``c`` from the point at distances ``rv`` from ``v`` and ``ru`` from ``u`` on
-    the far side of edge ``vu`` in the plane of triangle (v, u, c); inf if the segment from that
-    point to ``c`` misses the edge (the straight path would leave the triangle strip)."""
-    # 2D frame: v at the origin, u on the +x axis, c above it
+def _frame(pos, v, u, c, rv, ru):
+    """Triangle (v, u, c) laid in the plane with v at the origin, u at (length, 0) and c at
+    (cx, cy), cy > 0, and the point S at distances ``rv`` from v and ``ru`` from u on the far
+    side of the edge. Returns (ok, length, cx, cy, sx, sy); not ok for a degenerate triangle
+    or distances that no point has."""
     ex = pos[u, 0] - pos[v, 0]
     ey = pos[u, 1] - pos[v, 1]
     ez = pos[u, 2] - pos[v, 2]
     length = np.sqrt(ex * ex + ey * ey + ez * ez)
     if length == 0.0:
-        return np.inf
-    cx3 = pos[c, 0] - pos[v, 0]
-    cy3 = pos[c, 1] - pos[v, 1]
-    cz3 = pos[c, 2] - pos[v, 2]
-    cx = (cx3 * ex + cy3 * ey + cz3 * ez) / length
-    cy_sq = cx3 * cx3 + cy3 * cy3 + cz3 * cz3 - cx * cx
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    wx = pos[c, 0] - pos[v, 0]
+    wy = pos[c, 1] - pos[v, 1]
+    wz = pos[c, 2] - pos[v, 2]
+    cx = (wx * ex + wy * ey + wz * ez) / length
+    cy_sq = wx * wx + wy * wy + wz * wz - cx * cx
     if cy_sq <= 0.0:
-        return np.inf  # a degenerate triangle
-    cy = np.sqrt(cy_sq)
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
     sx = (rv * rv - ru * ru + length * length) / (2.0 * length)
     sy_sq = rv * rv - sx * sx
     if sy_sq < -_SLACK * length * length:
-        return np.inf  # the two distances are inconsistent: no such point
-    sy = -np.sqrt(max(sy_sq, 0.0))
-    # where the segment from the source to c crosses the line of the edge (y = 0)
-    x = sx + (cx - sx) * (-sy) / (cy - sy)
-    if x < -_SLACK * length or x > length * (1.0 + _SLACK):
-        return np.inf
-    return np.sqrt((cx - sx) * (cx - sx) + (cy - sy) * (cy - sy))
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    return True, length, cx, np.sqrt(cy_sq), sx, -np.sqrt(max(sy_sq, 0.0))
+
+
+@kernel(inline="always")
+def _crosses_edge(sx, sy, px, py, length):
+    """Does the segment from S (below the x axis) to P (above it) cross the edge [0, length]?"""
+    if py <= 0.0:
+        return False
+    x = sx + (px - sx) * (-sy) / (py - sy)
+    return -_SLACK * length <= x <= length * (1.0 + _SLACK)
+
+
+@kernel(inline="always")
+def _crosses(sx, sy, px, py, ax, ay, bx, by):
+    """Does the segment S -> P cross the segment A -> B (within the slack along A -> B)?"""
+    dx = px - sx
+    dy = py - sy
+    fx = bx - ax
+    fy = by - ay
+    denominator = dx * fy - dy * fx
+    if denominator == 0.0:
+        return False
+    along_sp = ((ax - sx) * fy - (ay - sy) * fx) / denominator
+    along_ab = ((ax - sx) * dy - (ay - sy) * dx) / denominator
+    return 0.0 <= along_sp <= 1.0 and -_SLACK <= along_ab <= 1.0 + _SLACK
+
+
+@kernel(inline="always")
+def _across(triangles, vertex_triangle_offsets, vertex_triangles, t, a, b):
+    """The triangle other than ``t`` on the edge (a, b), or -1 (a boundary edge)."""
+    for k in range(vertex_triangle_offsets[a], vertex_triangle_offsets[a + 1]):
+        t2 = vertex_triangles[k]
+        if t2 != t and (triangles[t2, 0] == b or triangles[t2, 1] == b or triangles[t2, 2] == b):
+            return t2
+    return -1
+
+
+@kernel(inline="always")
+def _place_beyond(pos, a, c, e, ax, cx, cy, other_x):
+    """Vertex ``e`` unfolded across the edge from A = (ax, 0) to C = (cx, cy) into the frame,
+    on the side away from the triangle's third vertex at (other_x, 0). Returns (ok, x, y)."""
+    fx = cx - ax
+    fy = cy
+    edge = np.hypot(fx, fy)
+    if edge == 0.0:
+        return False, 0.0, 0.0
+    fx /= edge
+    fy /= edge
+    ra_sq = _distance_sq(pos, a, e)
+    rc_sq = _distance_sq(pos, c, e)
+    along = (ra_sq - rc_sq + edge * edge) / (2.0 * edge)
+    across = np.sqrt(max(ra_sq - along * along, 0.0))
+    # the normal of A -> C pointing away from the third vertex
+    nx = -fy
+    ny = fx
+    if nx * (other_x - ax) > 0.0:
+        nx = -nx
+        ny = -ny
+    return True, ax + along * fx + across * nx, along * fy + across * ny
 
 
 def bend_vertices(pos: np.ndarray, triangles: np.ndarray) -> np.ndarray:
