@@ -78,6 +78,7 @@ def _geodesic_from_sources(
     lab_dist = np.full((n, labels), np.inf)
     lab_sigma = np.zeros((n, labels))
     lab_root = np.full((n, labels), -1, np.int64)
+    lab_block = np.full((n, labels), -1, np.int64)  # -1: a path; b: a shadow label behind bend vertex b
     heap = [(0.0, np.int64(0), np.int64(0))]
     heap.pop()
     for s in sources:
@@ -85,6 +86,7 @@ def _geodesic_from_sources(
         lab_dist[s, 0] = 0.0
         lab_root[s, 0] = s
         heapq.heappush(heap, (0.0, np.int64(s), np.int64(s)))
+    labs = (lab_pseudo, lab_dist, lab_sigma, lab_root, lab_block)
     updates = 0
     done = True
     while len(heap) > 0:
@@ -98,7 +100,8 @@ def _geodesic_from_sources(
             break
         sigma = lab_sigma[v, slot]
         root = lab_root[v, slot]
-        shortest = d <= _shortest(lab_dist, v)
+        block = lab_block[v, slot]
+        shortest = block < 0 and d <= _shortest(lab_dist, lab_block, v)
         for k in range(vertex_triangle_offsets[v], vertex_triangle_offsets[v + 1]):
             t = vertex_triangles[k]
             at = _corner_of(triangles, t, v)
@@ -110,7 +113,7 @@ def _geodesic_from_sources(
                 if shortest:
                     # the path bends at v, then runs straight along the edge v -> u
                     cand = d + np.sqrt(_distance_sq(pos, v, u))
-                    _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, u, cand, v, d, root)
+                    _offer(heap, labs, can_bend, u, cand, v, d, root, -1)
                 # straight on from p across the edge (v, u) to c, if u has p's front too
                 j = _slot_of(lab_pseudo, u, p)
                 if j < 0 or lab_sigma[u, j] != sigma:
@@ -118,30 +121,43 @@ def _geodesic_from_sources(
                 ok, length, cx, cy, sx, sy = _frame(pos, v, u, c, d - sigma, lab_dist[u, j] - sigma)
                 if not ok:
                     continue
-                if _crosses_edge(sx, sy, cx, cy, length):
-                    cand = sigma + np.hypot(cx - sx, cy - sy)
-                    _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, c, cand, p, sigma, root)
-                    continue
-                # the segment to c misses the edge, but one to a vertex beyond (v, c) or (u, c)
-                # may cross both: the edge (v, u) is then only partly lit by p's front, as next
-                # to the shadow of a corner, and the vertex beyond is reached through it
-                for side in range(2):
-                    a = v if side == 0 else u
-                    ax = 0.0 if side == 0 else length
-                    t2 = _across(triangles, vertex_triangle_offsets, vertex_triangles, t, a, c)
-                    if t2 < 0:
+                x = _crossing(sx, sy, cx, cy)
+                # float32 rest positions put a crossing off by ~1e-7 of the distance travelled
+                slack = _SLACK * (length + d - sigma)
+                inside = -slack <= x <= length + slack
+                cand = sigma + np.hypot(cx - sx, cy - sy)
+                u_block = lab_block[u, j]
+                if block < 0 and u_block < 0:
+                    if inside:
+                        _offer(heap, labs, can_bend, c, cand, p, sigma, root, -1)
                         continue
-                    e = triangles[t2, 3 - _corner_of(triangles, t2, a) - _corner_of(triangles, t2, c)]
-                    ok, ex, ey = _place_beyond(pos, a, c, e, ax, cx, cy, length - ax)
-                    if ok and _crosses_edge(sx, sy, ex, ey, length) and _crosses(sx, sy, ex, ey, ax, 0.0, cx, cy):
-                        cand = sigma + np.hypot(ex - sx, ey - sy)
-                        _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, e, cand, p, sigma, root)
+                    # past a bend vertex at an end of the edge the front goes on in its shadow
+                    if x < 0.0 and can_bend[v]:
+                        _offer(heap, labs, can_bend, c, cand, p, sigma, root, v)
+                    elif x > length and can_bend[u]:
+                        _offer(heap, labs, can_bend, c, cand, p, sigma, root, u)
+                    _look_beyond(
+                        heap, labs, can_bend, pos, triangles, vertex_triangle_offsets, vertex_triangles,
+                        t, v, u, c, length, cx, cy, sx, sy, p, sigma, root, slack,
+                    )
+                elif inside:
+                    # one end (or both) in the shadow of bend vertex b: c is lit if the segment
+                    # crosses the edge between the lit end and the shadow line through b
+                    b = block if block >= 0 else u_block
+                    lit = -1.0
+                    if block < 0 or u_block < 0:
+                        lit = 0.0 if block < 0 else length
+                    shadow = _shadow_crossing(pos, labs, v, u, c, b, sx, sy)
+                    if lit >= 0.0 and np.isfinite(shadow) and min(lit, shadow) - slack <= x <= max(lit, shadow) + slack:
+                        _offer(heap, labs, can_bend, c, cand, p, sigma, root, -1)
+                    elif block < 0 or u_block < 0 or block == u_block:
+                        _offer(heap, labs, can_bend, c, cand, p, sigma, root, b)
     dist = np.full(n, np.inf)
     best_root = np.full(n, -1, np.int64)
     for v in range(n):
         best = -1
         for j in range(labels):
-            if lab_pseudo[v, j] >= 0 and (
+            if lab_pseudo[v, j] >= 0 and lab_block[v, j] < 0 and (
                 best < 0
                 or lab_dist[v, j] < lab_dist[v, best]
                 or (lab_dist[v, j] == lab_dist[v, best] and lab_sigma[v, j] < lab_sigma[v, best])
@@ -163,59 +179,138 @@ def _slot_of(lab_pseudo, v, p):
 
 
 @kernel(inline="always")
-def _shortest(lab_dist, v):
+def _shortest(lab_dist, lab_block, v):
+    """``v``'s shortest path label (shadow labels are no paths)."""
     best = np.inf
     for j in range(lab_dist.shape[1]):
-        best = min(best, lab_dist[v, j])
+        if lab_block[v, j] < 0:
+            best = min(best, lab_dist[v, j])
     return best
 
 
 @kernel(inline="always")
-def _offer(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, can_bend, c, cand, p, sigma, root):
-    """Offer vertex ``c`` the label (pseudo-source ``p``, its ``sigma``, length ``cand``).
+def _offer(heap, labs, can_bend, c, cand, p, sigma, root, block):
+    """Offer vertex ``c`` the label (pseudo-source ``p``, its ``sigma``, length ``cand``,
+    ``block`` -1 for a path or the bend vertex whose shadow it lies in).
 
-    A label of ``p`` already at ``c`` is replaced if shorter, or as long and bending less.
-    A new label takes an empty slot, else evicts (in order) a label of a vertex that cannot
-    bend a path and is not ``c``'s shortest, or a longer label. Labels of vertices that cannot
-    bend a path are only taken as ``c``'s new shortest: they keep every vertex reachable (and
-    exact values flowing past obtuse triangles) without crowding out real fronts.
+    A label of ``p`` already at ``c`` is replaced if shorter (or as long and bending less);
+    a path replaces a shadow label of the same front. A new label takes an empty slot, else
+    evicts (in order) a shadow label, a label of a vertex that cannot bend a path and is not
+    ``c``'s shortest, or a longer label. Labels of vertices that cannot bend a path are only
+    taken as ``c``'s new shortest: they keep every vertex reachable (and exact values flowing
+    past obtuse triangles) without crowding out real fronts. Shadow labels only take an empty
+    slot or a longer shadow label's.
     """
+    lab_pseudo, lab_dist, lab_sigma, lab_root, lab_block = labs
     j = _slot_of(lab_pseudo, c, p)
     if j >= 0:
         old = lab_dist[c, j]
-        if cand < old * (1.0 - _SLACK) or (cand <= old * (1.0 + _SLACK) and sigma < lab_sigma[c, j] * (1.0 - _SLACK)):
-            _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, j, cand, p, sigma, root)
+        if block >= 0 and lab_block[c, j] < 0:
+            return
+        take = cand < old * (1.0 - _SLACK) or (
+            cand <= old * (1.0 + _SLACK) and (sigma < lab_sigma[c, j] * (1.0 - _SLACK) or (block < 0 <= lab_block[c, j]))
+        )
+        if take:
+            _store(heap, labs, c, j, cand, p, sigma, root, block)
         return
-    best = _shortest(lab_dist, c)
-    if not can_bend[p] and not cand < best * (1.0 - _SLACK):
+    best = _shortest(lab_dist, lab_block, c)
+    if not can_bend[p] and not (block < 0 and cand < best * (1.0 - _SLACK)):
         return
-    victim = -1
-    plain_victim = -1
+    empty = -1
+    shadow = -1
+    plain = -1
     longest = -1
     for k in range(lab_pseudo.shape[1]):
         q = lab_pseudo[c, k]
         if q < 0:
-            victim = k
+            empty = k
             break
-        if not can_bend[q] and lab_dist[c, k] > best and (plain_victim < 0 or lab_dist[c, k] > lab_dist[c, plain_victim]):
-            plain_victim = k
+        if lab_block[c, k] >= 0:
+            if shadow < 0 or lab_dist[c, k] > lab_dist[c, shadow]:
+                shadow = k
+        elif not can_bend[q] and lab_dist[c, k] > best:
+            if plain < 0 or lab_dist[c, k] > lab_dist[c, plain]:
+                plain = k
         if longest < 0 or lab_dist[c, k] > lab_dist[c, longest]:
             longest = k
-    if victim >= 0 or (plain_victim >= 0 and can_bend[p]):
-        if victim < 0:
-            victim = plain_victim
-        _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, victim, cand, p, sigma, root)
+    if empty >= 0:
+        _store(heap, labs, c, empty, cand, p, sigma, root, block)
+    elif block >= 0:
+        if shadow >= 0 and cand < lab_dist[c, shadow]:
+            _store(heap, labs, c, shadow, cand, p, sigma, root, block)
+    elif shadow >= 0:
+        _store(heap, labs, c, shadow, cand, p, sigma, root, block)
+    elif plain >= 0 and can_bend[p]:
+        _store(heap, labs, c, plain, cand, p, sigma, root, block)
     elif cand < lab_dist[c, longest]:
-        _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, longest, cand, p, sigma, root)
+        _store(heap, labs, c, longest, cand, p, sigma, root, block)
 
 
 @kernel(inline="always")
-def _store(heap, lab_pseudo, lab_dist, lab_sigma, lab_root, c, j, cand, p, sigma, root):
+def _store(heap, labs, c, j, cand, p, sigma, root, block):
+    lab_pseudo, lab_dist, lab_sigma, lab_root, lab_block = labs
     lab_pseudo[c, j] = p
     lab_dist[c, j] = cand
     lab_sigma[c, j] = sigma
     lab_root[c, j] = root
+    lab_block[c, j] = block
     heapq.heappush(heap, (cand, np.int64(c), np.int64(p)))
+
+
+@kernel(inline="always")
+def _front_radius(labs, x, b):
+    """(distance from bend vertex ``b`` to vertex ``x`` along b's straight front, b's sigma),
+    or (inf, 0) if x has no such path label."""
+    lab_pseudo, lab_dist, lab_sigma, lab_root, lab_block = labs
+    if x == b:
+        return 0.0, _shortest(lab_dist, lab_block, b)
+    j = _slot_of(lab_pseudo, x, b)
+    if j < 0 or lab_block[x, j] >= 0:
+        return np.inf, 0.0
+    return lab_dist[x, j] - lab_sigma[x, j], lab_sigma[x, j]
+
+
+@kernel(inline="always")
+def _shadow_crossing(pos, labs, v, u, c, b, sx, sy):
+    """Where the shadow line of bend vertex ``b`` (the ray from the front's source S through
+    b) crosses the line of the edge (v, u), in ``_frame``'s coordinates; b is placed by its
+    own front's labels at v and u. inf if they are missing or the ray never gets there."""
+    rv, sigma_v = _front_radius(labs, v, b)
+    ru, sigma_u = _front_radius(labs, u, b)
+    if not (np.isfinite(rv) and np.isfinite(ru)) or sigma_v != sigma_u:
+        return np.inf
+    ok, length, cx, cy, bx, by = _frame(pos, v, u, c, rv, ru)
+    if not ok or by <= sy:
+        return np.inf
+    return sx + (bx - sx) * (-sy) / (by - sy)
+
+
+@kernel(inline="always")
+def _crossing(sx, sy, px, py):
+    """x where the segment from S (below the x axis) to P (above it) crosses the axis."""
+    return sx + (px - sx) * (-sy) / (py - sy)
+
+
+@kernel(inline="always")
+def _look_beyond(
+    heap, labs, can_bend, pos, triangles, vertex_triangle_offsets, vertex_triangles,
+    t, v, u, c, length, cx, cy, sx, sy, p, sigma, root, slack,
+):
+    """The segment from S to c misses the edge (v, u), but one to a vertex beyond (v, c) or
+    (u, c) may cross both edges: the vertex beyond is then reached straight through them."""
+    for side in range(2):
+        a = v if side == 0 else u
+        ax = 0.0 if side == 0 else length
+        t2 = _across(triangles, vertex_triangle_offsets, vertex_triangles, t, a, c)
+        if t2 < 0:
+            continue
+        e = triangles[t2, 3 - _corner_of(triangles, t2, a) - _corner_of(triangles, t2, c)]
+        ok, ex, ey = _place_beyond(pos, a, c, e, ax, cx, cy, length - ax)
+        if not ok or ey <= 0.0:
+            continue
+        x = _crossing(sx, sy, ex, ey)
+        if -slack <= x <= length + slack and _crosses(sx, sy, ex, ey, ax, 0.0, cx, cy, slack):
+            _offer(heap, labs, can_bend, e, sigma + np.hypot(ex - sx, ey - sy), p, sigma, root, -1)
 
 
 @kernel(inline="always")
@@ -263,17 +358,8 @@ def _frame(pos, v, u, c, rv, ru):
 
 
 @kernel(inline="always")
-def _crosses_edge(sx, sy, px, py, length):
-    """Does the segment from S (below the x axis) to P (above it) cross the edge [0, length]?"""
-    if py <= 0.0:
-        return False
-    x = sx + (px - sx) * (-sy) / (py - sy)
-    return -_SLACK * length <= x <= length * (1.0 + _SLACK)
-
-
-@kernel(inline="always")
-def _crosses(sx, sy, px, py, ax, ay, bx, by):
-    """Does the segment S -> P cross the segment A -> B (within the slack along A -> B)?"""
+def _crosses(sx, sy, px, py, ax, ay, bx, by, slack):
+    """Does the segment S -> P cross the segment A -> B (within ``slack`` along A -> B)?"""
     dx = px - sx
     dy = py - sy
     fx = bx - ax
@@ -283,7 +369,8 @@ def _crosses(sx, sy, px, py, ax, ay, bx, by):
         return False
     along_sp = ((ax - sx) * fy - (ay - sy) * fx) / denominator
     along_ab = ((ax - sx) * dy - (ay - sy) * dx) / denominator
-    return 0.0 <= along_sp <= 1.0 and -_SLACK <= along_ab <= 1.0 + _SLACK
+    margin = slack / np.hypot(fx, fy)
+    return 0.0 <= along_sp <= 1.0 and -margin <= along_ab <= 1.0 + margin
 
 
 @kernel(inline="always")
