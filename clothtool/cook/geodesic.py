@@ -136,9 +136,11 @@ def _geodesic_from_sources(
                         _offer(heap, labs, can_bend, c, cand, p, sigma, root, v)
                     elif x > length and can_bend[u]:
                         _offer(heap, labs, can_bend, c, cand, p, sigma, root, u)
+                    # c is outside the beam through (v, u) on u's side (x > length) or v's: the
+                    # beam leaves the triangle through the edge from the other end to c
                     _look_beyond(
                         heap, labs, can_bend, pos, triangles, vertex_triangle_offsets, vertex_triangles,
-                        t, v, u, c, length, cx, cy, sx, sy, p, sigma, root, slack,
+                        t, u if x < 0.0 else v, c, x < 0.0, length, cx, cy, sx, sy, p, sigma, root, slack,
                     )
                 elif inside:
                     # one end (or both) in the shadow of bend vertex b: c is lit if the segment
@@ -294,23 +296,23 @@ def _crossing(sx, sy, px, py):
 @kernel(inline="always")
 def _look_beyond(
     heap, labs, can_bend, pos, triangles, vertex_triangle_offsets, vertex_triangles,
-    t, v, u, c, length, cx, cy, sx, sy, p, sigma, root, slack,
+    t, a, c, a_is_u, length, cx, cy, sx, sy, p, sigma, root, slack,
 ):
-    """The segment from S to c misses the edge (v, u), but one to a vertex beyond (v, c) or
-    (u, c) may cross both edges: the vertex beyond is then reached straight through them."""
-    for side in range(2):
-        a = v if side == 0 else u
-        ax = 0.0 if side == 0 else length
-        t2 = _across(triangles, vertex_triangle_offsets, vertex_triangles, t, a, c)
-        if t2 < 0:
-            continue
-        e = triangles[t2, 3 - _corner_of(triangles, t2, a) - _corner_of(triangles, t2, c)]
-        ok, ex, ey = _place_beyond(pos, a, c, e, ax, cx, cy, length - ax)
-        if not ok or ey <= 0.0:
-            continue
-        x = _crossing(sx, sy, ex, ey)
-        if -slack <= x <= length + slack and _crosses(sx, sy, ex, ey, ax, 0.0, cx, cy, slack):
-            _offer(heap, labs, can_bend, e, sigma + np.hypot(ex - sx, ey - sy), p, sigma, root, -1)
+    """The segment from S to c misses the edge (v, u) of triangle ``t``, but one to the vertex
+    beyond the edge (a, c) may cross both edges (v, u) and (a, c): that vertex is then reached
+    straight through them (next to a shadow line an edge may be lit only in part, and its
+    other end, in the shadow, has no label of the front to trilaterate from)."""
+    ax = length if a_is_u else 0.0
+    t2 = _across(triangles, vertex_triangle_offsets, vertex_triangles, t, a, c)
+    if t2 < 0:
+        return
+    e = triangles[t2, 3 - _corner_of(triangles, t2, a) - _corner_of(triangles, t2, c)]
+    ok, ex, ey = _place_beyond(pos, a, c, e, ax, cx, cy, length - ax)
+    if not ok or ey <= 0.0:
+        return
+    x = _crossing(sx, sy, ex, ey)
+    if -slack <= x <= length + slack and _crosses(sx, sy, ex, ey, ax, 0.0, cx, cy, slack):
+        _offer(heap, labs, can_bend, e, sigma + np.hypot(ex - sx, ey - sy), p, sigma, root, -1)
 
 
 @kernel(inline="always")
@@ -426,11 +428,13 @@ def bend_vertices(pos: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         cosine = np.einsum("ij,ij->i", a, b) / np.where(norms > 0, norms, 1.0)
         angle_sum += np.bincount(triangles[:, corner], np.arccos(np.clip(cosine, -1.0, 1.0)), n)
     edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    unique, count = np.unique(edges, axis=0, return_counts=True)
+    keys, count = np.unique(edges[:, 0] * np.int64(n) + edges[:, 1], return_counts=True)
     boundary = np.zeros(n, bool)
-    boundary[unique[count == 1].reshape(-1)] = True
+    boundary[keys[count == 1] // n] = True
+    boundary[keys[count == 1] % n] = True
     odd = np.zeros(n, bool)
-    odd[unique[count > 2].reshape(-1)] = True
+    odd[keys[count > 2] // n] = True
+    odd[keys[count > 2] % n] = True
     full_turn = np.where(boundary, np.pi, 2.0 * np.pi)
     return (angle_sum > full_turn + _ANGLE_SLACK) | odd
 
