@@ -55,7 +55,7 @@ LABELS_PER_VERTEX = 4
 
 
 @kernel
-def _geodesic_from_sources(
+def geodesic_from_sources(
     pos, triangles, vertex_triangle_offsets, vertex_triangles, sources, can_bend, labels, max_updates
 ):
     """Distances from ``sources`` (see the module docstring).
@@ -465,6 +465,6 @@ def geodesic_distances(
     can_bend = bend_vertices(pos, triangles)
     can_bend[sources] = True
     budget = 50 * n + 1 if max_updates is None else int(max_updates)
-    return _geodesic_from_sources(
+    return geodesic_from_sources(
         pos, triangles, offsets, vertex_triangles, sources, can_bend, LABELS_PER_VERTEX, budget
     )
