@@ -1,35 +1,46 @@
 """Geodesic distance over a triangle mesh from a set of source vertices, by unfolding.
 
-Why not a library: measured on flat grids against closed forms (benchmarks/tethers.py), the
-candidates on PyPI were each missing something. The shortest path over the edge graph (scipy's
-dijkstra, what the cook used before) is 5-8% long for directions between the edges; the heat
-method (potpourri3d) is 2% long on average and 40% off at worst, fast marching (potpourri3d)
-4% off near a point source at any resolution; exact MMP (pygeodesic) is exact but took 25 s
-for one pinned corner of a 256^2 grid; gdist does not load with numpy 2.
+Why not a library: measured on grids against closed forms (benchmarks/tethers.py --others),
+each candidate on PyPI missed the bar or the budget. The edge graph's shortest path (scipy's
+dijkstra, what the cook used before) is 5% long on average and 8.2% at worst off the edge
+directions; potpourri3d's heat method is 2% long on average and 40% off at worst, its fast
+marching 4% off near a point pin at any resolution; pygeodesic's MMP is exact but took 25 s
+for one pinned corner of a 256^2 grid (0.6 s at 128^2); gdist 2.1.0 does not load with numpy 2.
 
-The method here is Dijkstra's ordering with the fast-marching triangle update (as in
-Novotni & Klein's and Surazhsky et al.'s virtual-source propagation, one source a vertex):
-every vertex carries the distance, the *pseudo-source* its straight path starts from (a
-source vertex, or a vertex the path bends around, such as the inner corner of an L) and that
-pseudo-source's own distance ``sigma``. A vertex ``c`` gets a candidate from
+The method: a label-correcting Dijkstra over *labels* (Novotni & Klein's and Surazhsky et
+al.'s virtual-source propagation with a single point per window). A label of vertex x says
+"x is ``r`` from pseudo-source p along a straight line in the unfolded strip of triangles,
+and p is ``sigma`` from the sources": p is a source, or a vertex the path bends around (the
+inner corner of an L). A vertex keeps ``LABELS_PER_VERTEX`` labels of different
+pseudo-sources; its distance is its shortest. A label popped at v offers
 
-* an edge ``v -> c``: ``d[v] + |vc|``, a path bending at ``v`` (``v`` becomes the pseudo-source);
-* a triangle ``(v, u, c)`` whose ``v`` and ``u`` share a pseudo-source: the source is placed in
-  the triangle's plane from its distances to ``v`` and ``u`` (two circles meet on the far side
-  of ``vu``), and if the segment from it to ``c`` crosses the edge ``vu`` the candidate is
-  ``sigma + |Sc|``, a straight line in the unfolded strip.
+* each neighbour u the label (p = v, d + |vu|): the path bends at v (only v's shortest does);
+* across each triangle (v, u, c) whose u holds a label of the same p, the point S at the two
+  labels' distances from v and u on the far side of the edge (p unfolded into the triangle's
+  plane, two circles meeting) and, if the segment S -> c crosses the edge, c the label
+  (p, sigma + |Sc|): a straight line in the unfolded strip.
 
-Every candidate is the length of a path over the surface, so the result never exceeds the edge
-graph's distance. On a developable surface (a flat sheet, a cylinder, a cone away from its tip)
-that is simply connected the straight segments are exact, so the result is the exact geodesic
-up to rounding (tested to 1e-9 on sheets, L-shapes and cylinders). Over curved patches (a
-saddle or a cone tip strictly inside the unfolded strip) the unfolding is only locally right
-and the result is an approximation, as fast marching is; callers keep it at least the straight
-line. Updates are label-correcting (a popped vertex whose value later drops is pushed again),
-so obtuse triangles, which break fast marching's causality, are handled; ``max_updates`` bounds
-that work on pathological meshes, and the caller falls back to the edge graph if it runs out.
+A shortest path bends only at a saddle (surface angle over 2 pi) or a reflex boundary vertex
+(over pi) (``bend_vertices``); elsewhere it runs straight on. So other vertices' labels are
+kept only as a vertex's shortest (they keep every vertex reachable), while bend vertices'
+fronts are kept beside it: an edge next to a corner's shadow line needs the corner's front on
+both ends. The front of p passing a bend vertex b goes on as *shadow labels* (no path: never
+a distance); a triangle with one lit end and one shadowed end locates b's shadow line from b's
+own front and lights c if the segment to it crosses the edge on the lit side; and where an
+edge is lit only in part, the vertex one triangle further is tried through it.
 
-Each vertex also carries ``root``, the source vertex its path starts from: a tether's anchor.
+Every label that counts is the length of a path over the surface, so the result never exceeds
+the edge graph's distance (the edge offers are that graph). On a developable surface (flat
+sheets, L-shapes, cylinders) it is the exact geodesic up to rounding (tested against closed
+forms to 1e-9, the bar is 0.5%). Where a front crosses an edge lit only in part further away
+than one triangle from a lit pair, it falls back to a bent path and is long: on the bundled
+skirt, a cone whose waist is a reflex boundary, distances from one waist vertex are 3.2% long
+on average and 11% at worst (the edge graph: 10% and 37%); from the whole waist, exact. Over
+curved patches the unfolding is only locally right (callers keep lengths at least the straight
+line). ``max_updates`` bounds the work on pathological meshes; the caller falls back to the
+edge graph when it runs out. Float32 rest positions set the slack of every comparison.
+
+Each label also carries ``root``, the source its path starts from: a tether's anchor.
 """
 
 from __future__ import annotations
@@ -42,7 +53,8 @@ from clothtool._jit import kernel
 
 # Relative slack of the comparisons: a candidate equal to the current value within this is a
 # tie (ties keep the path that bends least, i.e. the smaller sigma), and a straight segment may
-# pass this close outside its edge (a path along the edge itself is then straight). Rest
+# pass outside its edge by this times the distance it has travelled (a path along the edge
+# itself, or through a vertex on a shadow line, is then straight). Rest
 # positions are float32: a row of vertices on a straight line is straight only to ~1e-7, and
 # a slack below that would make a path along such a row bend at every vertex instead of being
 # one straight segment (measured: 3-16% long on the bundled skirt with 1e-10).

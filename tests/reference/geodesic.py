@@ -14,7 +14,8 @@ import numpy as np
 
 # Relative slack of the comparisons: a candidate equal to the current value within this is a
 # tie (ties keep the path that bends least, i.e. the smaller sigma), and a straight segment may
-# pass this close outside its edge (a path along the edge itself is then straight). Rest
+# pass outside its edge by this times the distance it has travelled (a path along the edge
+# itself, or through a vertex on a shadow line, is then straight). Rest
 # positions are float32: a row of vertices on a straight line is straight only to ~1e-7, and
 # a slack below that would make a path along such a row bend at every vertex instead of being
 # one straight segment (measured: 3-16% long on the bundled skirt with 1e-10).
