@@ -451,32 +451,43 @@ def bend_vertices(pos: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return (angle_sum > full_turn + _ANGLE_SLACK) | odd
 
 
+class GeodesicSolver:
+    """The surface's triangles around each vertex and its bend vertices, computed once for
+    many source sets (a cook runs one per pinned island)."""
+
+    def __init__(self, pos: np.ndarray, triangles: np.ndarray):
+        self.pos = np.ascontiguousarray(pos, np.float64)
+        self.triangles = np.ascontiguousarray(triangles, np.int64).reshape(-1, 3)
+        n = self.pos.shape[0]
+        order = np.argsort(self.triangles.reshape(-1), kind="stable")
+        self.vertex_triangles = (order // 3).astype(np.int64)
+        self.vertex_triangle_offsets = np.zeros(n + 1, np.int64)
+        np.cumsum(np.bincount(self.triangles.reshape(-1), minlength=n), out=self.vertex_triangle_offsets[1:])
+        self.can_bend = bend_vertices(self.pos, self.triangles)
+
+    def distances(self, sources: np.ndarray, max_updates: int | None = None) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Geodesic distance of every vertex from the nearest of ``sources`` (module docstring).
+
+        Args:
+            sources: (s,) source vertex indices.
+            max_updates: the work budget in label updates; default 50 per vertex (a regular
+                sheet takes about 1.1).
+
+        Returns (dist f64 (n,), inf where no path; root i64 (n,), the source each path starts
+        at, -1 where none; done: False if the budget ran out, and the result must not be used).
+        """
+        sources = np.ascontiguousarray(sources, np.int64)
+        can_bend = self.can_bend.copy()
+        can_bend[sources] = True
+        budget = 50 * self.pos.shape[0] + 1 if max_updates is None else int(max_updates)
+        return geodesic_from_sources(
+            self.pos, self.triangles, self.vertex_triangle_offsets, self.vertex_triangles,
+            sources, can_bend, LABELS_PER_VERTEX, budget,
+        )
+
+
 def geodesic_distances(
     pos: np.ndarray, triangles: np.ndarray, sources: np.ndarray, max_updates: int | None = None
 ) -> tuple[np.ndarray, np.ndarray, bool]:
-    """Geodesic distance of every vertex from the nearest of ``sources`` (module docstring).
-
-    Args:
-        pos: (n,3) vertex positions.
-        triangles: (t,3) vertex indices.
-        sources: (s,) source vertex indices.
-        max_updates: the work budget in vertex updates; default 50 per vertex (a regular sheet
-            takes about 1.2).
-
-    Returns (dist f64 (n,), inf where no path; root i64 (n,), the source each path starts at,
-    -1 where none; done: False if the budget ran out, and the result must not be used).
-    """
-    pos = np.ascontiguousarray(pos, np.float64)
-    triangles = np.ascontiguousarray(triangles, np.int64).reshape(-1, 3)
-    n = pos.shape[0]
-    order = np.argsort(triangles.reshape(-1), kind="stable")
-    vertex_triangles = (order // 3).astype(np.int64)
-    offsets = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(triangles.reshape(-1), minlength=n), out=offsets[1:])
-    sources = np.ascontiguousarray(sources, np.int64)
-    can_bend = bend_vertices(pos, triangles)
-    can_bend[sources] = True
-    budget = 50 * n + 1 if max_updates is None else int(max_updates)
-    return geodesic_from_sources(
-        pos, triangles, offsets, vertex_triangles, sources, can_bend, LABELS_PER_VERTEX, budget
-    )
+    """``GeodesicSolver(pos, triangles).distances(sources, max_updates)``."""
+    return GeodesicSolver(pos, triangles).distances(sources, max_updates)

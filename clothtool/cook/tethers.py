@@ -24,7 +24,7 @@ import dataclasses
 
 import numpy as np
 
-from clothtool.cook.geodesic import geodesic_distances
+from clothtool.cook.geodesic import GeodesicSolver
 
 
 @dataclasses.dataclass(frozen=True)
@@ -77,10 +77,11 @@ def _nearest_in_island_graph(graph, members: np.ndarray) -> tuple[np.ndarray, np
 
 
 def _nearest_in_island_geodesic(
-    pos: np.ndarray, triangles: np.ndarray, members: np.ndarray, max_updates: int | None
+    solver: GeodesicSolver, members: np.ndarray, max_updates: int | None
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """(distance, anchor) from the island over the triangles, or None if the budget ran out."""
-    dist, root, done = geodesic_distances(pos, triangles, members, max_updates)
+    pos = solver.pos
+    dist, root, done = solver.distances(members, max_updates)
     if not done:
         return None
     # a geodesic is never shorter than the straight line; on curved patches the unfolding
@@ -128,11 +129,12 @@ def build_tethers(
     best_dist = np.full((k, n), np.inf)
     best_anchor = np.tile(np.arange(n, dtype=np.int64), (k, 1))
     graph = None
+    solver = GeodesicSolver(pos, triangles) if mode == "geodesic" else None
     graph_islands = []
     for island in range(island_count):
         members = np.flatnonzero(islands == island)
         if mode == "geodesic":
-            found = _nearest_in_island_geodesic(pos, triangles, members, max_updates)
+            found = _nearest_in_island_geodesic(solver, members, max_updates)
             if found is None:
                 graph_islands.append(island)
                 graph = _graph(pos, edges) if graph is None else graph
