@@ -65,6 +65,13 @@ _ANGLE_SLACK = 1e-4  # radians
 # it (an edge half in the shadow of a corner needs the corner's front on both its ends).
 LABELS_PER_VERTEX = 4
 
+# Sources of a small island keep their fronts beside a vertex's shortest, as bend vertices do
+# (next to a corner's shadow line an interior point pin needs them: 2.7% long without on
+# tests/unit/test_geodesic.py's L). A long island (a waistband, a pinned edge) would have
+# every vertex carry fronts of its neighbouring sources, four times the work, for nothing
+# measured: a pinned grid edge and the skirt's waist are exact with each vertex's nearest.
+_SOURCES_WITH_FRONTS = 64
+
 
 @kernel
 def geodesic_from_sources(
@@ -77,8 +84,8 @@ def geodesic_from_sources(
         triangles: i64 (t,3).
         vertex_triangle_offsets, vertex_triangles: i64 CSR, the triangles around each vertex.
         sources: i64 (s,) source vertices (distance 0, their own root).
-        can_bend: bool (n,) vertices a shortest path may bend around (sources, reflex boundary
-            vertices, saddles): their straight fronts are kept as extra labels.
+        can_bend: bool (n,) vertices a shortest path may bend around (reflex boundary vertices,
+            saddles; the sources of a small island): their fronts are kept as extra labels.
         labels: label slots per vertex.
         max_updates: give up after this many label pops.
 
@@ -477,8 +484,10 @@ class GeodesicSolver:
         at, -1 where none; done: False if the budget ran out, and the result must not be used).
         """
         sources = np.ascontiguousarray(sources, np.int64)
-        can_bend = self.can_bend.copy()
-        can_bend[sources] = True
+        can_bend = self.can_bend
+        if sources.shape[0] <= _SOURCES_WITH_FRONTS:
+            can_bend = can_bend.copy()
+            can_bend[sources] = True
         budget = 50 * self.pos.shape[0] + 1 if max_updates is None else int(max_updates)
         return geodesic_from_sources(
             self.pos, self.triangles, self.vertex_triangle_offsets, self.vertex_triangles,
