@@ -2,8 +2,8 @@
 
 Why not a library: measured on grids against closed forms (benchmarks/tethers.py --others),
 each candidate on PyPI missed the bar or the budget. The edge graph's shortest path (scipy's
-dijkstra, what the cook used before) is 5% long on average and 8.2% at worst off the edge
-directions; potpourri3d's heat method is 2% long on average and 40% off at worst, its fast
+dijkstra, what the cook used before) is 5.3% long on average and 8.2% at worst from a pinned
+corner of a grid, 17% and 41% from a pin in its middle (one diagonal per quad); potpourri3d's heat method is 2% long on average and 40% off at worst, its fast
 marching 4% off near a point pin at any resolution; pygeodesic's MMP is exact but took 25 s
 for one pinned corner of a 256^2 grid (0.6 s at 128^2); gdist 2.1.0 does not load with numpy 2.
 
