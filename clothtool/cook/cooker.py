@@ -218,14 +218,9 @@ def cook_fabric(mesh: ClothMesh, options: CookOptions = CookOptions(), source_sh
         graph_edges = np.concatenate(
             [p.pairs for p in phases if p.phase_type in structural] or [np.zeros((0, 2), np.int64)]
         )
-        tether_anchor, tether_length, fallbacks = build_tethers(
-            pos, graph_edges, pinned, tether_mode, options.tether_anchors
-        )
-        if fallbacks:
-            warnings.append(
-                f"{mesh.source}: warning: {fallbacks} particles have no path over the mesh to a pinned particle; "
-                "their tethers are straight lines (pin each separate piece to get geodesic tethers)"
-            )
+        tethers = build_tethers(pos, graph_edges, triangles, pinned, tether_mode, options.tether_anchors)
+        tether_anchor, tether_length, fallbacks = tethers.anchor, tethers.length, tethers.unreachable
+        warnings.extend(f"{mesh.source}: warning: {note}" for note in tethers.notes)
     else:
         tether_anchor, tether_length = np.zeros(0, np.int32), np.zeros(0, np.float32)
     lap("tethers")

@@ -174,7 +174,9 @@ def test_dropped_sheet_rests_on_the_trampoline(tmp_path):
     closest, solvers = drop(lower, upper, False)
     assert "self-collide" not in solvers[0].stage_names
     low, high = (s.state.cur[:, :3] for s in solvers)
-    assert min(closest) < 0.5 * DISTANCE
+    # closer than the collision distance at some frame end (how much closer depends on where
+    # in its fall a frame ends: 0.0067 once geodesic tethers made the trampoline sag less)
+    assert min(closest) < DISTANCE
     assert high[:, 1].max() < low[:, 1].min()  # fell straight through
 
 

@@ -34,7 +34,9 @@ def test_tether_properties(cols, rows, pins, mode, k):
     edges = np.array(
         [[a, b] for a in range(n) for b in range(n) if a < b and np.linalg.norm(mesh.vertex_pos[a] - mesh.vertex_pos[b]) < 0.1 * 1.5]
     )
-    anchor, length, fallbacks = build_tethers(mesh.vertex_pos, edges, pin_file_free, mode, k)
+    triangles = mesh.face_vertex_indices.reshape(-1, 3)
+    built = build_tethers(mesh.vertex_pos, edges, triangles, pin_file_free, mode, k)
+    anchor, length, fallbacks = built.anchor, built.length, built.unreachable
     _, islands = pinned_islands(pin_file_free, edges)
     k = min(k, islands)  # slots beyond the number of pinned islands are not made
     anchor, length = anchor.reshape(k, n), length.reshape(k, n)
@@ -76,8 +78,9 @@ def test_geodesic_tether_goes_around_a_slit():
     pins = np.zeros(pos.shape[0], bool)
     pins[top_left] = True
     fabric = cook_fabric(cut, CookOptions(weld=0.0, tethers="none")).fabric
-    # tethers over the cooked constraint graph, which has no edge across the slit
-    anchor, length, _ = build_tethers(fabric.rest_pos, fabric.constraint_indices, pins, "geodesic")
+    # tethers over the cooked triangles, which have no edge across the slit
+    built = build_tethers(fabric.rest_pos, fabric.constraint_indices, fabric.triangles, pins, "geodesic")
+    anchor, length = built.anchor, built.length
     top_right = int(index[0, 6])
     straight = np.linalg.norm(pos[top_right] - pos[top_left])
     assert anchor[top_right] == top_left
