@@ -22,7 +22,8 @@ from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
 from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
 from clothtool.solver.environment import AIR_DENSITY, Environment
-from clothtool.solver.frame import Pose
+from clothtool.scene.tracks import quat_to_matrices
+from clothtool.solver.frame import FramePath, Pose
 from clothtool.solver.measure import ClothMeter
 from clothtool.solver.model import build_model
 from clothtool.workload import iterations_per_frame
@@ -133,12 +134,14 @@ class BakeStats:
         }
 
 
-def _track_pose(track):
-    def pose(time: float) -> Pose:
-        sample = track.sample(time)
-        return Pose(sample.rotation_matrix(), np.asarray(sample.translation, np.float64))
+def _track_path(track) -> FramePath:
+    """The cloth frame that follows ``track``, sampled many times at once."""
 
-    return pose
+    def poses(times: np.ndarray) -> list[Pose]:
+        translations, rotations, _ = track.sample_many(times)
+        return [Pose(m, t) for m, t in zip(quat_to_matrices(rotations), translations)]
+
+    return FramePath(lambda time: poses(np.array([time]))[0], poses)
 
 
 def rest_time(scene: Scene) -> float:
@@ -178,7 +181,7 @@ def make_solvers(scene: Scene, profiler: StageProfiler) -> list[Integrator]:
             cloth.name, cloth.fabric, cloth.material, cloth.placement, scene.meters_per_unit, scene.up_axis,
             cloth.motion, cloth.backstop,
         )
-        track = _track_pose(cloth.track) if cloth.track is not None else None
+        track = _track_path(cloth.track) if cloth.track is not None else None
         teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
         extra = {"frame_dt": 1.0 / scene.fps} if scene.solver.integrator == "explicit" else {}
         attachment = _attachment(scene, cloth, model)

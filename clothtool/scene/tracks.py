@@ -37,13 +37,19 @@ def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array(
+    return quat_to_matrices(np.asarray(q, np.float64)[None])[0]
+
+
+def quat_to_matrices(q: np.ndarray) -> np.ndarray:
+    """(m,3,3) rotation matrices of (m,4) quaternions (w, x, y, z), normalised first."""
+    w, x, y, z = (q / np.linalg.norm(q, axis=1, keepdims=True)).T
+    return np.stack(
         [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=1,
     )
 
 
@@ -95,15 +101,24 @@ def quat_exp(v: np.ndarray) -> np.ndarray:
     return np.concatenate([[np.cos(angle)], np.sin(angle) * v / angle])
 
 
+def slerp_many(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``slerp`` of (m,4) quaternion rows at (m,) parameters, row by row."""
+    dot = np.einsum("ij,ij->i", a, b)
+    b = np.where(dot[:, None] < 0.0, -b, b)
+    dot = np.abs(dot)
+    t = t[:, None]
+    near = dot > 0.9995  # nearly parallel: lerp is accurate and avoids dividing by sin ~ 0
+    lerped = a + t * (b - a)
+    lerped /= np.linalg.norm(lerped, axis=1, keepdims=True)
+    theta = np.arccos(np.minimum(dot, 1.0))[:, None]
+    sin = np.where(near[:, None], 1.0, np.sin(theta))
+    arc = (np.sin((1 - t) * theta) * a + np.sin(t * theta) * b) / sin
+    return np.where(near[:, None], lerped, arc)
+
+
 def slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
-    """Spherical interpolation along the shorter arc."""
-    dot = float(np.dot(a, b))
-    if dot < 0.0:
-        b, dot = -b, -dot
-    if dot > 0.9995:  # nearly parallel: lerp is accurate and avoids dividing by sin ~ 0
-        return quat_normalize(a + t * (b - a))
-    theta = np.arccos(dot)
-    return (np.sin((1 - t) * theta) * a + np.sin(t * theta) * b) / np.sin(theta)
+    """Spherical interpolation of two unit quaternions along the shorter arc."""
+    return slerp_many(np.asarray(a, np.float64)[None], np.asarray(b, np.float64)[None], np.array([float(t)]))[0]
 
 
 def decompose_matrix(m: np.ndarray, where: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -205,51 +220,73 @@ class Track:
             and np.ptp(self.scales, axis=0).max() == 0
         )
 
-    def _segment(self, time: float) -> tuple[int, float]:
-        i = int(np.searchsorted(self.times, time, side="right")) - 1
-        i = min(max(i, 0), self.times.shape[0] - 2)
-        span = self.times[i + 1] - self.times[i]
-        u = (time - self.times[i]) / span
-        return i, float(min(max(u, 0.0), 1.0))
-
     def sample(self, time: float) -> TrackSample:
-        """The pose at ``time`` seconds."""
+        """The pose at ``time`` seconds. The last few samples are kept: a bake asks for a
+        collider's pose at a frame's end, then again at the next frame's start and for the
+        cache's transforms (the arrays are shared: do not modify them)."""
+        recent = self.__dict__.setdefault("_recent", {})
+        sample = recent.get(time)
+        if sample is None:
+            translations, rotations, scales = self.sample_many(np.array([float(time)]))
+            sample = recent[time] = TrackSample(translations[0], rotations[0], scales[0])
+            if len(recent) > 8:
+                del recent[next(iter(recent))]
+        return sample
+
+    def sample_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Translations (m,3), unit quaternions (m,4) and scales (m,3) at (m,) ``times``
+        in seconds, all at once (a frame's iterations sample the track together)."""
+        times = np.asarray(times, np.float64)
         k = self.times.shape[0]
-        if k == 1 or time <= self.times[0]:
-            return TrackSample(self.translations[0], self.rotations[0], self.scales[0])
-        if time >= self.times[-1]:
-            return TrackSample(self.translations[-1], self.rotations[-1], self.scales[-1])
-        i, u = self._segment(time)
+        if k == 1:
+            m = times.shape[0]
+            return (np.repeat(self.translations, m, 0), np.repeat(self.rotations, m, 0), np.repeat(self.scales, m, 0))
+        i = np.clip(np.searchsorted(self.times, times, side="right") - 1, 0, k - 2)
+        u = np.clip((times - self.times[i]) / (self.times[i + 1] - self.times[i]), 0.0, 1.0)
         if self.interpolation == "step":
-            return TrackSample(self.translations[i], self.rotations[i], self.scales[i])
+            i = np.where(u >= 1.0, i + 1, i)  # at or past a segment's end key: that key
+            return self.translations[i], self.rotations[i], self.scales[i]
         if self.interpolation == "linear" or k == 2:
-            lerp = lambda a: a[i] + u * (a[i + 1] - a[i])  # noqa: E731
-            return TrackSample(lerp(self.translations), slerp(self.rotations[i], self.rotations[i + 1], u), lerp(self.scales))
-        return TrackSample(self._catmull_rom(self.translations, i, u), self._spherical_cubic(i, u), self._catmull_rom(self.scales, i, u))
+            lerp = lambda a: a[i] + u[:, None] * (a[i + 1] - a[i])  # noqa: E731
+            return lerp(self.translations), slerp_many(self.rotations[i], self.rotations[i + 1], u), lerp(self.scales)
+        return self._catmull_rom(self.translations, i, u), self._spherical_cubic(i, u), self._catmull_rom(self.scales, i, u)
 
-    def _neighbours(self, i: int) -> tuple[int, int]:
-        return max(i - 1, 0), min(i + 2, self.times.shape[0] - 1)
+    def _neighbours(self, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return np.maximum(i - 1, 0), np.minimum(i + 2, self.times.shape[0] - 1)
 
-    def _catmull_rom(self, values: np.ndarray, i: int, u: float) -> np.ndarray:
+    def _catmull_rom(self, values: np.ndarray, i: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Non-uniform Catmull-Rom (tangents from the neighbouring keys' times)."""
         a, d = self._neighbours(i)
         t = self.times
-        p1, p2 = values[i], values[i + 1]
-        m1 = (values[i + 1] - values[a]) / (t[i + 1] - t[a]) * (t[i + 1] - t[i])
-        m2 = (values[d] - values[i]) / (t[d] - t[i]) * (t[i + 1] - t[i])
+        span = (t[i + 1] - t[i])[:, None]
+        m1 = (values[i + 1] - values[a]) / (t[i + 1] - t[a])[:, None] * span
+        m2 = (values[d] - values[i]) / (t[d] - t[i])[:, None] * span
+        u = u[:, None]
         u2, u3 = u * u, u * u * u
-        return (2 * u3 - 3 * u2 + 1) * p1 + (u3 - 2 * u2 + u) * m1 + (-2 * u3 + 3 * u2) * p2 + (u3 - u2) * m2
+        return (2 * u3 - 3 * u2 + 1) * values[i] + (u3 - 2 * u2 + u) * m1 + (-2 * u3 + 3 * u2) * values[i + 1] + (u3 - u2) * m2
 
-    def _spherical_cubic(self, i: int, u: float) -> np.ndarray:
+    def _spherical_cubic(self, i: np.ndarray, u: np.ndarray) -> np.ndarray:
         """Quaternion Catmull-Rom: a spherical Bezier (de Casteljau with slerp) whose inner
         control points sit a third of the tangent along, tangents taken in log space."""
-        a, d = self._neighbours(i)
-        q = self.rotations
-        q0, q1, q2, q3 = q[a], q[i], q[i + 1], q[d]
-        c1 = quat_multiply(q1, quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2)) / 6.0))
-        c2 = quat_multiply(q2, quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3)) / 6.0))
-        ab, bc, cd = slerp(q1, c1, u), slerp(c1, c2, u), slerp(c2, q2, u)
-        return quat_normalize(slerp(slerp(ab, bc, u), slerp(bc, cd, u), u))
+        controls = self._bezier_controls()
+        q1, q2, c1, c2 = self.rotations[i], self.rotations[i + 1], controls[i, 0], controls[i, 1]
+        ab, bc, cd = slerp_many(q1, c1, u), slerp_many(c1, c2, u), slerp_many(c2, q2, u)
+        result = slerp_many(slerp_many(ab, bc, u), slerp_many(bc, cd, u), u)
+        return result / np.linalg.norm(result, axis=1, keepdims=True)
+
+    def _bezier_controls(self) -> np.ndarray:
+        """(k-1, 2, 4): each segment's inner control quaternions, computed once per track."""
+        controls = self.__dict__.get("_controls")
+        if controls is None:
+            q, k = self.rotations, self.times.shape[0]
+            controls = np.empty((k - 1, 2, 4))
+            for i in range(k - 1):
+                a, d = max(i - 1, 0), min(i + 2, k - 1)
+                q0, q1, q2, q3 = q[a], q[i], q[i + 1], q[d]
+                controls[i, 0] = quat_multiply(q1, quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2)) / 6.0))
+                controls[i, 1] = quat_multiply(q2, quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3)) / 6.0))
+            object.__setattr__(self, "_controls", controls)
+        return controls
 
 
 def static_track(name: str, translation=(0.0, 0.0, 0.0), rotation=(1.0, 0.0, 0.0, 0.0), scale=(1.0, 1.0, 1.0)) -> Track:

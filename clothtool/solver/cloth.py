@@ -10,7 +10,7 @@ import numpy as np
 from clothtool.profile import StageProfiler
 from clothtool.solver.config import SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.frame import FrameHistory, FrameInertia, Pose, extrapolated_path
+from clothtool.solver.frame import FrameHistory, FrameInertia, FramePath, Pose, extrapolated_path
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
 from clothtool.solver.logstiffness import damping_scale
@@ -68,7 +68,9 @@ class ClothSolver:
         self.config = config
         self.environment = environment
         self.profiler = profiler
-        self.track = track
+        # a plain time -> Pose callable is sampled one time at a time
+        self.track = track if track is None or isinstance(track, FramePath) else FramePath(track)
+        self._targets: list[Pose] = []  # the frame's pose at each iteration's end
         self.teleport_frames = teleport_frames
         self.initial_velocity = np.asarray(initial_velocity, np.float64)
         self.gravity = np.asarray(environment.gravity, np.float64)
@@ -112,6 +114,9 @@ class ClothSolver:
             self._start(plan)
         elif self.history is not None and frame in self.teleport_frames:
             self._teleport(plan)
+        if self.track is not None:
+            ends = [plan.iteration_end(index) for index in range(plan.iterations)]
+            self._targets = [self._teleport_path(t) for t in ends] if self._teleport_path else self.track.poses(ends)
         self.sleep.begin_frame(self, plan)
         for stage in self.stages:
             stage.begin_frame(plan)
@@ -152,10 +157,8 @@ class ClothSolver:
         scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, h) * ratio
         terms = None
         if self.history is not None:
-            sample = self._teleport_path or self.track
-            target = sample(plan.iteration_end(index))
             terms = self.history.advance(
-                target, scale, self.gravity, h, self.inertia, self.config.stiffness_frequency, self.state.cur.dtype
+                self._targets[index], scale, self.gravity, h, self.inertia, self.config.stiffness_frequency, self.state.cur.dtype
             )
         return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, scale, terms)
 

@@ -27,6 +27,7 @@ stiffness-frequency step and converted in log space like damping.
 from __future__ import annotations
 
 import dataclasses
+from typing import Callable
 
 import numpy as np
 
@@ -49,6 +50,24 @@ class Pose:
 
     def to_local(self, points: np.ndarray) -> np.ndarray:
         return (points - self.translation) @ self.rotation
+
+
+class FramePath:
+    """A moving frame over time: ``path(time)`` is its Pose, ``path.poses(times)`` the poses
+    at many times at once (a frame's iteration ends are sampled together: one vectorised
+    call instead of one per iteration). ``many`` (times -> list of Poses) is optional."""
+
+    def __init__(self, at: Callable[[float], Pose], many: Callable[[np.ndarray], list[Pose]] | None = None):
+        self._at = at
+        self._many = many
+
+    def __call__(self, time: float) -> Pose:
+        return self._at(time)
+
+    def poses(self, times) -> list[Pose]:
+        if self._many is not None:
+            return self._many(np.asarray(times, np.float64))
+        return [self._at(float(t)) for t in times]
 
 
 def extrapolated_path(pose: Pose, later: Pose, dt: float):
