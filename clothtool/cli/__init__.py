@@ -6,6 +6,7 @@ import click
 
 from clothtool import __version__
 from clothtool.cli.bake import bake
+from clothtool.cli.common import route_library_warnings
 from clothtool.cli.cook import cook
 from clothtool.cli.inspect import inspect
 from clothtool.cli.study import study
@@ -15,6 +16,7 @@ from clothtool.cli.study import study
 @click.version_option(__version__, prog_name="clothtool")
 def main() -> None:
     """Cook garment meshes into fabrics and bake fabrics into HDF5/USD caches."""
+    route_library_warnings()
 
 
 main.add_command(cook)
