@@ -24,6 +24,7 @@ import functools
 import hashlib
 import inspect
 import os
+import shutil
 import sys
 import tempfile
 import warnings
@@ -174,3 +175,11 @@ def attach_cache(dispatcher) -> None:
     if usable_key_directory() is None or not os.path.exists(inspect.getfile(dispatcher.py_func)):
         return  # no cache directory, or a function typed at a prompt (no source file)
     dispatcher._cache = PackageFunctionCache(dispatcher.py_func)
+
+
+def clear_cache() -> Path:
+    """Remove the whole cache directory (every key's sub-directory); returns its path."""
+    root = cache_root()
+    if root.exists():
+        shutil.rmtree(root)
+    return root

@@ -10,6 +10,7 @@ from clothtool.cli.common import route_library_warnings
 from clothtool.cli.cook import cook
 from clothtool.cli.inspect import inspect
 from clothtool.cli.study import study
+from clothtool.cli.warmup import warmup
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -23,3 +24,4 @@ main.add_command(cook)
 main.add_command(bake)
 main.add_command(inspect)
 main.add_command(study)
+main.add_command(warmup)
