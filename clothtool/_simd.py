@@ -13,8 +13,8 @@ offset, lane-wise ``vadd``/``vsub``/``vmul`` (multiply-add pairs fuse, as ``fast
 {"contract"}`` lets scalar code fuse), ``fill``, ``lane``, ``keep_w``, and ``transpose4`` /
 ``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once).
 The values never leave a kernel (no boxing), so a numba type with a primitive data model is
-all they need. numba's cache is keyed on each kernel's own source file: after editing this
-module, delete the kernels' cached code (clothtool/**/__pycache__/*.nbi, *.nbc).
+all they need. The kernel cache is keyed on the contents of every clothtool source
+(clothtool._kernel_cache), so an edit here recompiles the kernels that inline it.
 """
 
 from __future__ import annotations
