@@ -158,7 +158,7 @@ class PackageCacheLocator(_CacheLocator):
 
 
 class _PackageCacheImpl(CompileResultCacheImpl):
-    _locator_classes = [PackageCacheLocator]
+    _locator_classes = [PackageCacheLocator]  # type: ignore[list-item]  # numba types the list as list[type[object]]
 
 
 class PackageFunctionCache(FunctionCache):
