@@ -260,7 +260,7 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
     with profiler.stage("jit warm-up"):
         for solver, meter in zip(solvers, meters):
             solver.warm_up()
-            meter.warm_up()
+            meter.warm_up(options.percentiles)
 
     attributes = scene.output.attributes
     cache_options = CacheOptions(

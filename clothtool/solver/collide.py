@@ -276,10 +276,11 @@ class CollideStage(Stage):
         self.kernel(
             shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale, self.meters_per_unit, state.cur[:0]
         )
-        collide_virtual(
-            self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.mass_scale,
-            self.meters_per_unit, state.cur[:0],
-        )
+        if self.virtual.shape[0]:  # as in run(): a big kernel, compiled only for fabrics that have virtual particles
+            collide_virtual(
+                self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.mass_scale,
+                self.meters_per_unit, state.cur[:0],
+            )
         spheres, points, planes = self.sphere_start[:0], self.mesh_start[:0], self.plane_end[:0]
         pose_spheres(spheres, spheres, self.frame, 0.0, 0, spheres)
         pose_points(points, points, self.frame, 0.0, 0, points)
@@ -290,6 +291,11 @@ class CollideStage(Stage):
         convex_shift(self.convex_translation[:0], self.frame, 0.0, self.convex_data[:0])
         triangles, bounds = self.triangles[:0], self.bounds[:0]
         pack_triangles(points, points, triangles, self.triangle_params[:0], self.triangle_data[:0])
+        # the mesh grid is built (begin_frame) only when there are mesh colliders; their
+        # triangle count is the same at every time (checked per frame)
+        colliders = self.solver.environment.colliders
+        if colliders is None or colliders(0.0).mesh_triangles.shape[0] == 0:
+            return
         triangle_bounds(points, points, triangles, self.triangle_params[:0, 0].copy(), self.real(0.0), bounds)
         grid = self.grid.copy()
         grid_layout(bounds, 1.0, grid)
