@@ -50,7 +50,7 @@ def serial_and_parallel(func):
     kernels written for this only prange over conflict-free work, so both give the same bits."""
 
     def named(suffix: str):
-        copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
+        copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__, func.__closure__)
         copy.__qualname__ = func.__qualname__ + suffix
         return copy
 
