@@ -82,6 +82,9 @@ start = [0.2, 0.0, 0.0]
 end = [0.2, 0.5, 0.0]
 radii = [0.05, 0.04]
 
+"""
+
+CONVEX_COLLIDERS = """
 [collider.floor]
 kind = "plane"
 point = [0.0, -1.0, 0.0]
@@ -89,7 +92,9 @@ point = [0.0, -1.0, 0.0]
 [collider.box]
 kind = "convex"
 box = { center = [-0.3, 0.2, 0.0], size = [0.1, 0.1, 0.1] }
+"""
 
+MESH_COLLIDERS = """
 [collider.ramp]
 kind = "mesh"
 mesh = "grid.obj"
@@ -104,11 +109,19 @@ class Variant:
     label: str
     overrides: tuple[str, ...]
     tracked: bool  # a cloth simulates in a moving frame (the position-based solver only)
+    convexes: bool = True  # plane and convex colliders besides the spheres and capsules
+    meshes: bool = True  # a mesh collider
+
+    def scene_text(self) -> str:
+        text = SCENE.replace("{front_track}", 'track = "hips"\n' if self.tracked else "")
+        return text + (CONVEX_COLLIDERS if self.convexes else "") + (MESH_COLLIDERS if self.meshes else "")
 
 
 def variants() -> list[Variant]:
     """Every integrator x precision (x stiffness mode for the position-based one) x
-    serial / parallel kernels."""
+    serial / parallel kernels, with every collider kind; then, for the position-based solver,
+    every other combination of mesh colliders, convex colliders and continuous collision (its
+    particle collision kernel is compiled for the kinds a scene has)."""
     found = []
     threading = {"serial": (), "parallel": ("solver.parallel_threshold=1", "solver.fabric_parallel_threshold=1")}
     modes = {"pbd": ("nvcloth", "xpbd"), "implicit": (None,), "explicit": (None,)}
@@ -123,6 +136,15 @@ def variants() -> list[Variant]:
                 overrides.append("solver.force=true")
             label = " ".join(part for part in (integrator, mode, precision, threads) if part)
             found.append(Variant(label, tuple(overrides), tracked=integrator == "pbd"))
+    for precision, (threads, thread_overrides) in itertools.product(("float32", "float64"), threading.items()):
+        for meshes, convexes, continuous in itertools.product((True, False), repeat=3):
+            if meshes and convexes and continuous:
+                continue  # above
+            kinds = [name for name, on in (("mesh", meshes), ("convex", convexes), ("continuous", continuous)) if on]
+            overrides = ['solver.integrator="pbd"', f'solver.precision="{precision}"', *thread_overrides,
+                         f"solver.continuous_collision={str(continuous).lower()}"]
+            label = f"pbd {precision} {threads} colliders: spheres capsules {' '.join(kinds)}".rstrip()
+            found.append(Variant(label, tuple(overrides), tracked=True, convexes=convexes, meshes=meshes))
     return found
 
 
@@ -146,13 +168,11 @@ def warm_up_kernels(
     with tempfile.TemporaryDirectory(prefix="clothtool-warmup-") as tmp:
         folder = Path(tmp)
         (folder / "grid.obj").write_text(_grid_obj(GRID))
-        scenes = {}
-        for tracked in (True, False):
-            scenes[tracked] = folder / f"warmup_{'tracked' if tracked else 'world'}.toml"
-            scenes[tracked].write_text(SCENE.replace("{front_track}", 'track = "hips"\n' if tracked else ""))
+        scene_path = folder / "warmup.toml"
         for variant in filter(only, variants()):
             start = time.perf_counter()
-            scene = load_scene(scenes[variant.tracked], list(variant.overrides))
+            scene_path.write_text(variant.scene_text())
+            scene = load_scene(scene_path, list(variant.overrides))
             try:
                 bake(scene, "null", BakeOptions(percentiles=True))
             except UnstableError:

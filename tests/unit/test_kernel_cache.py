@@ -173,5 +173,13 @@ def test_warmup_covers_every_integrator_precision_and_threading():
         for precision in ("float32", "float64"):
             for threads in ("serial", "parallel"):
                 assert f"{integrator} {precision} {threads}" in labels
-    parallel = [v for v in variants() if v.label.endswith("parallel")]
-    assert all("solver.parallel_threshold=1" in v.overrides for v in parallel)
+    parallel = [v for v in variants() if " parallel" in v.label]
+    assert parallel and all("solver.parallel_threshold=1" in v.overrides for v in parallel)
+    # the particle collision kernel is compiled per combination of collider kinds
+    for precision in ("float32", "float64"):
+        for threads in ("serial", "parallel"):
+            combos = {
+                (v.meshes, v.convexes, "solver.continuous_collision=true" in v.overrides or "continuous" not in str(v.overrides))
+                for v in variants() if v.label.startswith("pbd") and f"{precision} {threads}" in v.label
+            }
+            assert len(combos) == 8, combos
