@@ -45,7 +45,7 @@ def warmup(clear: bool) -> None:
     def report(label: str, seconds: float) -> None:
         nonlocal count
         count += 1
-        click.echo(f"  {label:<58} {seconds:7.2f} s")
+        click.echo(f"  {label:<64} {seconds:7.2f} s")
 
     click.echo(f"kernel cache {directory}")
     total = warm_up_kernels(report)

@@ -183,3 +183,38 @@ def test_warmup_covers_every_integrator_precision_and_threading():
                 for v in variants() if v.label.startswith("pbd") and f"{precision} {threads}" in v.label
             }
             assert len(combos) == 8, combos
+
+
+WARM_THEN_BAKE = """
+import sys
+from clothtool.warmup import warm_up_kernels
+from clothtool.bake import make_solvers
+from clothtool.profile import StageProfiler
+from clothtool.scene.scene import load_scene
+from clothtool.solver.measure import ClothMeter
+
+# the position-based float32 serial variants: the README walk bake's configuration
+warm_up_kernels(only=lambda v: v.label.startswith("pbd") and "float32 serial" in v.label)
+print("warmed", flush=True)
+sys.stdin.readline()  # the test lists the cache's files now
+scene = load_scene(sys.argv[1])
+for solver in make_solvers(scene, StageProfiler()):
+    solver.warm_up()
+    ClothMeter(solver).warm_up(True)
+"""
+
+
+@pytest.mark.slow
+def test_warmup_leaves_nothing_for_the_readme_walk_to_compile(tmp_path):
+    cache = tmp_path / "cache"
+    child = subprocess.Popen(
+        [sys.executable, "-c", WARM_THEN_BAKE, str(REPO / "examples" / "skirt" / "walk.toml")],
+        env=_env(REPO, CLOTHTOOL_CACHE_DIR=str(cache)), stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+    )
+    assert child.stdout.readline().strip() == "warmed", child.stderr.read()
+    files = _files(cache)
+    assert files
+    _, stderr = child.communicate("\n", timeout=900)
+    assert child.returncode == 0, stderr
+    assert _files(cache) == files, "the walk compiled kernels the warm-up did not"
