@@ -104,9 +104,10 @@ def usable_key_directory() -> Path | None:
         tempfile.TemporaryFile(dir=directory).close()
     except (OSError, RuntimeError) as exc:  # RuntimeError: Path.home() with no HOME and no passwd entry
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        where = f" {exc.filename}" if isinstance(exc, OSError) and exc.filename else ""
+        if isinstance(exc, OSError) and exc.filename:
+            reason = f"{reason}: {exc.filename}"
         warnings.warn(
-            f"kernel cache disabled ({reason}:{where}); kernels are compiled in memory for this run; "
+            f"kernel cache disabled ({reason}); kernels are compiled in memory for this run; "
             f"set {CACHE_DIR_ENV} to a writable directory to keep them",
             KernelCacheWarning,
             stacklevel=2,
