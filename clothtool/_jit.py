@@ -1,7 +1,7 @@
 """The one place that configures numba.
 
-Kernels are compiled with ``cache=True`` (compiled code is stored beside the sources, so a
-second run pays no compile time). Of fastmath's flags only ``contract`` is on: it fuses
+Compiled kernels are cached on disk by clothtool._kernel_cache (a user cache directory, keyed
+by the contents of the sources rather than their path), so a second run pays no compile time. Of fastmath's flags only ``contract`` is on: it fuses
 multiply-adds (about 20% off the fabric kernel, whose cost is its dependency chain) and, unlike
 the others, keeps NaN/inf semantics (the instability checks rely on them) and the bit-identity
 of a kernel's serial and parallel versions (tested). numba is imported lazily by the
@@ -20,16 +20,28 @@ import types
 os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 import numba  # noqa: E402  (after the environment above)
+from numba.core.dispatcher import Dispatcher  # noqa: E402
 
-KERNEL_OPTIONS = dict(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy", boundscheck=False)
+from clothtool._kernel_cache import attach_cache  # noqa: E402
+
+# No ``cache=True``: numba's own cache is path-keyed and fails on read-only installs;
+# ``_compile`` attaches clothtool's cache instead.
+KERNEL_OPTIONS = dict(nogil=True, fastmath={"contract"}, error_model="numpy", boundscheck=False)
 
 
 def kernel(func=None, **overrides):
     """``numba.njit`` with the project's options; usable as ``@kernel`` or ``@kernel(parallel=True)``."""
     options = {**KERNEL_OPTIONS, **overrides}
     if func is None:
-        return lambda f: numba.njit(**options)(f)
-    return numba.njit(**options)(func)
+        return lambda f: _compile(f, options)
+    return _compile(func, options)
+
+
+def _compile(func, options: dict):
+    dispatcher = numba.njit(**options)(func)
+    if isinstance(dispatcher, Dispatcher):  # not under NUMBA_DISABLE_JIT=1, where njit returns func
+        attach_cache(dispatcher)
+    return dispatcher
 
 
 def serial_and_parallel(func):
@@ -38,7 +50,7 @@ def serial_and_parallel(func):
     kernels written for this only prange over conflict-free work, so both give the same bits."""
 
     def named(suffix: str):
-        copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__)
+        copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__, func.__closure__)
         copy.__qualname__ = func.__qualname__ + suffix
         return copy
 

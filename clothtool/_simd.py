@@ -13,12 +13,13 @@ offset, lane-wise ``vadd``/``vsub``/``vmul`` (multiply-add pairs fuse, as ``fast
 {"contract"}`` lets scalar code fuse), ``fill``, ``lane``, ``keep_w``, and ``transpose4`` /
 ``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once).
 The values never leave a kernel (no boxing), so a numba type with a primitive data model is
-all they need. numba's cache is keyed on each kernel's own source file: after editing this
-module, delete the kernels' cached code (clothtool/**/__pycache__/*.nbi, *.nbc).
+all they need. The kernel cache is keyed on the contents of every clothtool source
+(clothtool._kernel_cache), so an edit here recompiles the kernels that inline it.
 """
 
 from __future__ import annotations
 
+import numba
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic, models, register_model
@@ -180,3 +181,12 @@ def w_lanes(typingctx, r0, r1, r2, r3):
         return _shuffle(builder, w01, w23, [0, 1, 4, 5])
 
     return r0(r0, r1, r2, r3), codegen
+
+
+
+if numba.config.DISABLE_JIT:  # type: ignore[attr-defined]  # set dynamically by numba
+    # NUMBA_DISABLE_JIT=1 runs the kernels as plain Python (CI runs the kernel tests once so);
+    # intrinsics cannot be called from Python, so the same operations on numpy 4-vectors stand in.
+    from clothtool import _simd_python
+
+    globals().update({name: getattr(_simd_python, name) for name in _simd_python.__all__})

@@ -20,9 +20,9 @@ from clothtool.errors import ClothtoolError, UnstableError
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
+from clothtool.scene.tracks import quat_to_matrices
 from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
 from clothtool.solver.environment import AIR_DENSITY, Environment
-from clothtool.scene.tracks import quat_to_matrices
 from clothtool.solver.frame import FramePath, Pose
 from clothtool.solver.measure import ClothMeter
 from clothtool.solver.model import build_model
@@ -298,7 +298,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     with profiler.stage("jit warm-up"):
         for solver, meter in zip(solvers, meters):
             solver.warm_up()
-            meter.warm_up()
+            meter.warm_up(options.percentiles)
     preroll(scene, solvers)
 
     attributes = scene.output.attributes
@@ -369,7 +369,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     return stats
 
 
-def preroll(scene: Scene, solvers: list[ClothSolver]) -> None:
+def preroll(scene: Scene, solvers: list[Integrator]) -> None:
     """Simulate ``scene.preroll`` frames before the start frame (not written): the bodies
     blend from their rest pose to the first frame's, and the cloths settle on them."""
     frame_dt = 1.0 / scene.fps

@@ -9,7 +9,7 @@ import json
 import os
 from pathlib import Path
 
-from clothtool.errors import ClothtoolError, UsageError
+from clothtool.errors import UsageError
 from clothtool.io.atomic import atomic_output
 from clothtool.profile import format_profile
 

@@ -189,10 +189,10 @@ def _plots(report: dict) -> list[tuple[str, str]]:
                 colour = colours[curve % len(colours)]  # max and p99 of one phase type share a colour
                 curve += 1
                 prefix = f"{name} {label}" if len(names) > 1 else label
-                frames, maxima = _series(report, name, lambda s, l=label: 100 * s["strain"][l]["max"])
+                frames, maxima = _series(report, name, lambda s, phase=label: 100 * s["strain"][phase]["max"])
                 strain_lines.append((f"{prefix} max", frames, maxima, {"color": colour}))
                 if "p99" in report["overall"][name]["strain"][label]:
-                    frames, p99 = _series(report, name, lambda s, l=label: 100 * s["strain"][l]["p99"])
+                    frames, p99 = _series(report, name, lambda s, phase=label: 100 * s["strain"][phase]["p99"])
                     strain_lines.append((f"{prefix} p99", frames, p99, {"color": colour, "linestyle": "--"}))
         plots.append(("Strain per phase type (max; p99 dashed)", _curve_plot(plt, "strain (%)", strain_lines)))
         plots.append(("Max particle speed", _curve_plot(

@@ -13,6 +13,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 
 import click
 
@@ -168,6 +169,22 @@ def handle_errors(func):
 
 def warn(line: str) -> None:
     click.echo(line if line.split(":", 1)[0] else f"warning: {line}", err=True)
+
+
+def route_library_warnings() -> None:
+    """Show warnings raised by clothtool's library code (e.g. the kernel cache being
+    unusable) as one ``warning: ...`` line on stderr, like the CLI's own warnings, instead of
+    Python's two-line ``file:line: Category`` form. Matched by the category's module so that
+    nothing heavy (numba) is imported to know the classes; other warnings are left alone."""
+    show_other = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        if category.__module__.split(".", 1)[0] == "clothtool":
+            warn(f"warning: {message}")
+        else:
+            show_other(message, category, filename, lineno, file, line)
+
+    warnings.showwarning = show
 
 
 def emit_json(data) -> None:

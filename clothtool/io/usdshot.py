@@ -15,14 +15,13 @@ import os
 from pathlib import Path
 
 import numpy as np
-
-from clothtool.io.usdcache import UsdLayerWriter, _first_line, _layer_args  # first: sets pxr up for crate files
 from pxr import Sdf, Tf, Usd, UsdGeom, Vt
 
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.cache import CacheHeader, CacheOptions, FrameData
 from clothtool.io.cache_common import as_points, points_extent
+from clothtool.io.usdcache import UsdLayerWriter, _first_line, _layer_args  # first: sets pxr up for crate files
 
 
 class ShotLayerWriter(UsdLayerWriter):

@@ -18,7 +18,7 @@ from clothtool.errors import ClothtoolError, SceneError
 from clothtool.fabric import Fabric
 from clothtool.presets import read_toml
 from clothtool.scene.overrides import Named, apply_overrides, check_override_keys
-from clothtool.scene.trackload import KEY_KEYS, TRACK_KEYS, load_track
+from clothtool.scene.trackload import TRACK_KEYS, load_track
 from clothtool.scene.tracks import Track, euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver.config import Material, SolverConfig, load_material, load_solver
 from clothtool.solver.model import BackstopSettings, MotionSettings, Placement

@@ -132,8 +132,9 @@ def _analytic(prim, type_name: str, source: str) -> dict:
 
 def _topology(mesh, source: str):
     """Face counts and indices (refusing time samples that change them) and triangles."""
-    from clothtool.mesh import topology
     from pxr import Usd
+
+    from clothtool.mesh import topology
 
     path = mesh.GetPath()
     values = {}
@@ -191,8 +192,9 @@ def skinning_targets(stage, source: str) -> dict:
     """Prim path -> (skeleton query, skinning query, skeleton) of every mesh a UsdSkel
     skeleton skins (pxr's warnings about broken skeletons are held back: the collider that
     uses one reports it in one line)."""
-    from clothtool.io.usd_env import quiet_stderr
     from pxr import Usd, UsdSkel
+
+    from clothtool.io.usd_env import quiet_stderr
 
     with quiet_stderr():
         return _skinning_targets(stage, Usd, UsdSkel)

@@ -60,10 +60,11 @@ def is_usd_stage(path: Path) -> bool:
 
 
 def _open(path: Path):
+    from pxr import Usd
+
     import clothtool.io.usd_env  # noqa: F401  (before pxr: how crate files are read)
     from clothtool.inputs import note_input
     from clothtool.io.usd_env import quiet_stderr
-    from pxr import Usd
 
     with quiet_stderr():
         try:

@@ -23,7 +23,12 @@ import numpy as np
 from clothtool.errors import SceneError
 from clothtool.solver.colliders import ColliderArrays, friction_or
 from clothtool.solver.iteration import FramePlan, Iteration
-from clothtool.solver.kernels.collide import collide_particles, collide_particles_parallel, collide_virtual
+from clothtool.solver.kernels.collide import (
+    collide_particles,
+    collide_particles_for,
+    collide_particles_parallel,
+    collide_virtual,
+)
 from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
 from clothtool.solver.kernels.collide_pose import (
     convex_shift,
@@ -80,8 +85,8 @@ class CollideStage(Stage):
         self.meters_per_unit = real(model.units_to_meters)
         self.continuous = bool(solver.config.continuous_collision)
         # thread start-up costs more than it saves on small cloths; results are identical
-        big = model.particle_count >= solver.config.parallel_threshold and numba.config.NUMBA_NUM_THREADS > 1
-        self.kernel = collide_particles_parallel if big else collide_particles
+        self.parallel = model.particle_count >= solver.config.parallel_threshold and numba.config.NUMBA_NUM_THREADS > 1
+        self.kernel = collide_particles_parallel if self.parallel else collide_particles  # until begin_frame picks
         fabric = model.fabric
         self.virtual = np.ascontiguousarray(fabric.virtual_particles, I32)
         self.virtual_weights = np.ascontiguousarray(fabric.virtual_particle_weights, real)
@@ -130,8 +135,17 @@ class CollideStage(Stage):
         self._copy_spheres(start, end)
         self._copy_convexes(start, end)
         self._copy_meshes(start, end)
+        self.kernel = self._kernel_for(start)
         self._frame_serial += 1
         self._end_key = None
+
+    def _kernel_for(self, colliders: ColliderArrays):
+        """The particle kernel compiled for the collider kinds present (mesh, convex) and the
+        continuous setting: a scene of spheres and capsules compiles a fifth of the general one."""
+        meshes = colliders.mesh_triangles.shape[0] > 0
+        convexes = colliders.convex_plane_offsets.shape[0] > 1
+        serial, parallel = collide_particles_for(meshes, convexes, self.continuous)
+        return parallel if self.parallel else serial
 
     @staticmethod
     def _check_same_layout(start: ColliderArrays, end: ColliderArrays, plan: FramePlan) -> None:
@@ -178,7 +192,8 @@ class CollideStage(Stage):
         self.convex_offsets = _reuse(self.convex_offsets, (k + 1,))
         self.convex_offsets[:] = start.convex_plane_offsets
         self.convex_translation = _reuse(self.convex_translation, (k, 3))
-        convex_translation(worlds[0], worlds[1], self.convex_offsets, self.convex_translation)
+        if k:
+            convex_translation(worlds[0], worlds[1], self.convex_offsets, self.convex_translation)
         data = self.convex_data = _reuse(self.convex_data, (k, 5))
         data[:, 0] = start.convex_margin + self.thickness
         data[:, 1] = friction_or(start.convex_friction, self.friction)
@@ -239,7 +254,8 @@ class CollideStage(Stage):
         frame = self.frame
         # the last iteration's end is this one's start when neither the time nor the pose changed
         continues = self._end_key == (self._frame_serial, alpha0) and before is self._end_pose
-        pose_mesh = not (self.mesh_still and self._mesh_packed)
+        # kinds the scene lacks are skipped (zero-length arrays): their kernels never compile
+        pose_mesh = self.mesh_world[0].shape[0] > 0 and not (self.mesh_still and self._mesh_packed)
         if continues:
             self.sphere_start, self.sphere_end = self.sphere_end, self.sphere_start
             if pose_mesh:
@@ -249,12 +265,14 @@ class CollideStage(Stage):
             if pose_mesh:
                 pose_points(*self.mesh_world, frame, alpha0, 0, self.mesh_start)
         pose_spheres(*self.sphere_world, frame, alpha1, 1, self.sphere_end)
-        pose_planes(*self.plane_world, frame, alpha1, 1, self.plane_end)
+        if self.plane_end.shape[0]:
+            pose_planes(*self.plane_world, frame, alpha1, 1, self.plane_end)
         self._end_key = (self._frame_serial, alpha1)
         self._end_pose = now
         pack_spheres(self.sphere_start, self.sphere_end, self.sphere_colliders, self.sphere_params, self.sphere_data)
         pack_capsules(self.sphere_start, self.sphere_end, self.capsule_index, self.capsule_params, self.capsule_data)
-        convex_shift(self.convex_translation, frame, alpha1 - alpha0, self.convex_data)
+        if self.convex_data.shape[0]:
+            convex_shift(self.convex_translation, frame, alpha1 - alpha0, self.convex_data)
         if pose_mesh:
             pose_points(*self.mesh_world, frame, alpha1, 1, self.mesh_end)
             pack_triangles(self.mesh_start, self.mesh_end, self.triangles, self.triangle_params, self.triangle_data)
@@ -273,23 +291,33 @@ class CollideStage(Stage):
     def warm_up(self) -> None:
         state = self.solver.state
         shapes, mesh = self._groups(empty=True)
+        # the kernel begin_frame will pick: a scene's collider kinds are the same at every time
+        colliders = self.solver.environment.colliders(0.0)
+        self.kernel = self._kernel_for(colliders)
         self.kernel(
             shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale, self.meters_per_unit, state.cur[:0]
         )
-        collide_virtual(
-            self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.mass_scale,
-            self.meters_per_unit, state.cur[:0],
-        )
+        if self.virtual.shape[0]:  # as in run(): a big kernel, compiled only for fabrics that have virtual particles
+            collide_virtual(
+                self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.mass_scale,
+                self.meters_per_unit, state.cur[:0],
+            )
         spheres, points, planes = self.sphere_start[:0], self.mesh_start[:0], self.plane_end[:0]
         pose_spheres(spheres, spheres, self.frame, 0.0, 0, spheres)
-        pose_points(points, points, self.frame, 0.0, 0, points)
-        pose_planes(planes, planes, self.frame, 0.0, 0, planes)
         pack_spheres(spheres, spheres, self.sphere_colliders[:0], self.sphere_params[:0], self.sphere_data[:0])
         pack_capsules(spheres, spheres, self.capsule_index[:0], self.capsule_params[:0], self.capsule_data[:0])
-        convex_translation(planes, planes, self.convex_offsets[:1], self.convex_translation[:0])
-        convex_shift(self.convex_translation[:0], self.frame, 0.0, self.convex_data[:0])
+        if colliders.plane.shape[0]:
+            pose_planes(planes, planes, self.frame, 0.0, 0, planes)
+            convex_translation(planes, planes, self.convex_offsets[:1], self.convex_translation[:0])
+            convex_shift(self.convex_translation[:0], self.frame, 0.0, self.convex_data[:0])
+        if colliders.mesh_points.shape[0] == 0:
+            return
+        pose_points(points, points, self.frame, 0.0, 0, points)
         triangles, bounds = self.triangles[:0], self.bounds[:0]
         pack_triangles(points, points, triangles, self.triangle_params[:0], self.triangle_data[:0])
+        # the mesh grid is built (begin_frame) only when there are mesh triangles
+        if colliders.mesh_triangles.shape[0] == 0:
+            return
         triangle_bounds(points, points, triangles, self.triangle_params[:0, 0].copy(), self.real(0.0), bounds)
         grid = self.grid.copy()
         grid_layout(bounds, 1.0, grid)

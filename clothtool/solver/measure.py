@@ -27,13 +27,18 @@ class ClothMeter:
         self.strain = np.zeros(model.constraint_indices.shape[0], solver.state.cur.dtype)
         self.has_tethers = model.has_tethers
 
-    def warm_up(self) -> None:
+    def warm_up(self, percentiles: bool = True) -> None:
+        """Compile the kernels ``measure(h, percentiles)`` calls (with percentiles: the
+        strain-keeping ones, else the reducing one)."""
         model, state = self.solver.model, self.solver.state
-        constraint_strain(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur, self.strain[:0])
-        strain_extremes(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur)
+        if percentiles:
+            constraint_strain(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur, self.strain[:0])
+            upper_percentile(self.strain[:0], 99.0)
+        else:
+            strain_extremes(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur)
         motion_summary(state.cur[:0], state.prev[:0], model.mass[:0], 1.0)
-        tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
-        upper_percentile(self.strain[:0], 99.0)
+        if self.has_tethers:
+            tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
 
     def measure(self, h: float, percentiles: bool) -> dict:
         """Stats after the last iteration of a frame of iteration length ``h``."""

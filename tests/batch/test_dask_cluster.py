@@ -18,7 +18,6 @@ distributed = pytest.importorskip("distributed")
 
 from clothtool.batch import bake_many, expand_wedges, make_jobs  # noqa: E402
 
-
 REPO = Path(__file__).resolve().parents[2]
 TIMEOUT = 240
 

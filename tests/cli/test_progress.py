@@ -62,7 +62,7 @@ def test_interval_from_the_environment(monkeypatch):
             progress_interval()
 
 
-def bake(scene_dir, *args, env=None):
+def bake(scene_dir, *args, env=None):  # noqa: F811  (the fixture name as a parameter)
     return CliRunner(env=env).invoke(main, ["bake", str(scene_dir / "scene.toml"), "-o", "null", *args])
 
 

@@ -32,7 +32,6 @@ from clothtool.io.fabric_file import write_fabric
 from clothtool.io.memory import MemoryCacheWriter
 from clothtool.mesh.shapes import grid
 from clothtool.scene.scene import load_scene
-
 from tests.conftest import REPO
 
 CLOTH = "sheet"

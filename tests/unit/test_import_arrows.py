@@ -17,7 +17,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[2] / "clothtool"
 
 # Neutral modules: anything may import them; they import only each other.
-NEUTRAL = {"errors", "inputs", "resources", "presets", "_jit", "_simd", "fabric", "mesh", "__init__"}
+NEUTRAL = {"errors", "inputs", "resources", "presets", "_jit", "_kernel_cache", "_simd", "_simd_python", "fabric", "mesh", "__init__"}
 # What each layer may import besides the neutral modules.
 ALLOWED = {
     "cook": set(),

@@ -32,6 +32,8 @@ primitives: every array passed to a call costs reference counting, per particle.
 
 from __future__ import annotations
 
+import functools
+
 import numba
 import numpy as np
 
@@ -241,62 +243,81 @@ def _mesh_summary(found):
     return 1, ex, ey, ez, tx, ty, tz, mu * np.sqrt(ex * ex + ey * ey + ez * ez)
 
 
-def _collide_particles(shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
-    """Collide every movable particle (see the module docstring); writes only its own row."""
-    zero = np.float32(0.0)
-    one = np.float32(1.0)
-    sphere_data, capsule_data, planes, offsets, convex_data = shapes
-    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
-    spheres = sphere_data.shape[0] > 0
-    capsules = capsule_data.shape[0] > 0
-    convexes = offsets.shape[0] > 1
-    meshes = triangle_data.shape[0] > 0
-    continuous = continuous and (spheres or capsules)
-    for p in numba.prange(cur.shape[0]):
-        if prev[p, 3] == 0.0 or cur[p, 3] == 0.0:
-            continue
-        px = cur[p, 0]
-        py = cur[p, 1]
-        pz = cur[p, 2]
-        qx = prev[p, 0]
-        qy = prev[p, 1]
-        qz = prev[p, 2]
-        if continuous:
-            _, px, py, pz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
-        total = (0, zero, zero, zero, zero, zero, zero, zero)
-        if spheres:
-            total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
-        if capsules:
-            total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
-        if convexes:
-            total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
-        if meshes:
-            found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
-            total = _add_contacts(total, _mesh_summary(found))
-        count, dx, dy, dz, sx, sy, sz, budget = total
-        if count > 0:
-            inv = one / np.float32(count)
-            dx *= inv
-            dy *= inv
-            dz *= inv
-            px += dx
-            py += dy
-            pz += dz
-            fx, fy, fz = friction_correction(px, py, pz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv)
-            px += fx
-            py += fy
-            pz += fz
-            if mass_scale > 0.0:
-                square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
-                cur[p, 3] *= one / (one + mass_scale * square)
-        cur[p, 0] = px
-        cur[p, 1] = py
-        cur[p, 2] = pz
+def _make_collide_particles(with_meshes: bool, with_convexes: bool, with_continuous: bool):
+    """The particle kernel's source with the code of mesh colliders, convex colliders
+    (planes included) and continuous collision each kept or left out: the flags are closure
+    constants, so numba prunes the branches they guard before typing them and a scene pays
+    compile time only for the kinds it has. With all three kept it is the general kernel."""
+
+    def _collide_particles(shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
+        """Collide every movable particle (see the module docstring); writes only its own row."""
+        zero = np.float32(0.0)
+        one = np.float32(1.0)
+        sphere_data, capsule_data, planes, offsets, convex_data = shapes
+        triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
+        spheres = sphere_data.shape[0] > 0
+        capsules = capsule_data.shape[0] > 0
+        convexes = offsets.shape[0] > 1
+        meshes = triangle_data.shape[0] > 0
+        continuous = continuous and (spheres or capsules)
+        for p in numba.prange(cur.shape[0]):
+            if prev[p, 3] == 0.0 or cur[p, 3] == 0.0:
+                continue
+            px = cur[p, 0]
+            py = cur[p, 1]
+            pz = cur[p, 2]
+            qx = prev[p, 0]
+            qy = prev[p, 1]
+            qz = prev[p, 2]
+            if with_continuous:  # a closure constant: numba prunes the branch before typing it
+                if continuous:
+                    _, px, py, pz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
+            total = (0, zero, zero, zero, zero, zero, zero, zero)
+            if spheres:
+                total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
+            if capsules:
+                total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
+            if with_convexes:
+                if convexes:
+                    total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
+            if with_meshes:
+                if meshes:
+                    found = mesh_contact(
+                        px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame
+                    )
+                    total = _add_contacts(total, _mesh_summary(found))
+            count, dx, dy, dz, sx, sy, sz, budget = total
+            if count > 0:
+                inv = one / np.float32(count)
+                dx *= inv
+                dy *= inv
+                dz *= inv
+                px += dx
+                py += dy
+                pz += dz
+                fx, fy, fz = friction_correction(px, py, pz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv)
+                px += fx
+                py += fy
+                pz += fz
+                if mass_scale > 0.0:
+                    square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
+                    cur[p, 3] *= one / (one + mass_scale * square)
+            cur[p, 0] = px
+            cur[p, 1] = py
+            cur[p, 2] = pz
+
+    return _collide_particles
 
 
+@functools.lru_cache(maxsize=None)
+def collide_particles_for(meshes: bool, convexes: bool, continuous: bool):
+    """(serial, parallel) particle kernels that handle mesh colliders, convex colliders and
+    continuous collision only when asked (the ones left out must be absent or off in the
+    arguments); same arguments and results as ``collide_particles``."""
+    return serial_and_parallel(_make_collide_particles(meshes, convexes, continuous))
 
 
-collide_particles, collide_particles_parallel = serial_and_parallel(_collide_particles)
+collide_particles, collide_particles_parallel = collide_particles_for(True, True, True)
 
 
 @kernel

@@ -23,7 +23,11 @@ def integrate_linear(scale, bias, cur, prev):
     flat_cur = cur.reshape(-1)
     flat_prev = prev.reshape(-1)
     bias4 = np.zeros(4, cur.dtype)
-    bias4[:3] = bias
+    # element by element: a slice assignment compiles numba's shape-mismatch error message
+    # (int and str formatting), ~2 s of a cold start for three numbers
+    bias4[0] = bias[0]
+    bias4[1] = bias[1]
+    bias4[2] = bias[2]
     for i in range(cur.shape[0]):
         row = 4 * np.uintp(i)
         c = load4(flat_cur, row)

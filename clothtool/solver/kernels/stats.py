@@ -91,7 +91,8 @@ def constraint_strain(indices, rest, cur, strain):
         lo = np.uintp(block * STRAIN_BLOCK)
         hi = np.uintp(min(block * STRAIN_BLOCK + STRAIN_BLOCK, n))
         _edge_strains(flat, indices, rest, lo, hi, block_strain)
-        strain[lo:hi] = block_strain[: hi - lo]
+        for i in range(hi - lo):  # not a slice assignment: that compiles numba's shape-error message
+            strain[lo + i] = block_strain[i]
 
 
 # "reassoc" lets the float64 sum vectorise; its order is fixed by the code, so the result
