@@ -24,6 +24,7 @@ predicts.
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
 import numpy as np
 import pytest
@@ -37,7 +38,12 @@ from clothtool.solver.model import Placement, build_model
 from clothtool.study import StudyOptions, run_study
 from clothtool.study.sweep import Sweep
 from tests.conftest import EXAMPLES
-from tests.physics.conftest import cooked_grid, crossing_times, fabric_from_arrays, make_solver
+from tests.physics.conftest import (
+    cooked_grid,
+    crossing_times,
+    fabric_from_arrays,
+    make_solver,
+)
 
 G = 9.81
 SECONDS = 1.0
@@ -68,7 +74,7 @@ def free_fall_error(integrator: str, frequency: float, y0: float = HEIGHT, preci
     chosen = {} if precision is None else {"precision": precision}  # None: the default precision
     config = SolverConfig(frequency=frequency, integrator=integrator, **chosen)
     solver = free_particle_solver(integrator, config, y0)
-    frames = int(round(SECONDS * FPS))
+    frames = round(SECONDS * FPS)
     for frame in range(1, frames + 1):
         solver.step(frame, (frame - 1) / FPS, 1.0 / FPS)
     return float(solver.world_points()[0, 1]) - (y0 - 0.5 * G * SECONDS**2)
@@ -84,7 +90,7 @@ def test_free_fall_converges_as_the_frequency_doubles(integrator):
             f"(allowed {allowed:.3g} m, shrinking with 1 / frequency)"
         )
     if integrator in FIRST_ORDER:
-        ratios = [coarse / fine for coarse, fine in zip(errors, errors[1:])]
+        ratios = [coarse / fine for coarse, fine in pairwise(errors)]
         assert all(1.9 <= r <= 2.1 for r in ratios), f"{integrator}: error ratios per doubling {ratios} (want 2)"
 
 
@@ -116,7 +122,7 @@ def centre_of_mass_error(frequency: float, y0: float = HEIGHT, seconds: float = 
     state.prev[:, :3] = (state.prev[:, :3].astype(np.float64) - velocity * h).astype(state.prev.dtype)
     start = mass @ state.cur[:, :3].astype(np.float64) / mass.sum()
     before = mass @ state.prev[:, :3].astype(np.float64) / mass.sum()
-    frames = int(round(seconds * FPS))
+    frames = round(seconds * FPS)
     for frame in range(2, frames + 2):
         solver.step(frame, (frame - 1) * dt, dt)
     n = frames * iterations
@@ -182,7 +188,7 @@ def test_pendulum_period_converges_far_from_the_origin(mode):
             f"{mode}: pendulum at y = {HEIGHT:g} m, {frequency} Hz: period off by {error:+.3e} "
             f"(allowed {allowed:.2e}, shrinking with 1 / frequency)"
         )
-    ratios = [coarse / fine for coarse, fine in zip(errors, errors[1:])]
+    ratios = [coarse / fine for coarse, fine in pairwise(errors)]
     assert all(1.7 <= r <= 2.3 for r in ratios), f"{mode}: period error ratios per doubling {ratios} (want ~2)"
 
 
@@ -222,7 +228,7 @@ def test_swing_study_error_falls_monotonically_up_to_6144_hz():
     result = run_study(EXAMPLES / "sheet" / "swing.toml", options)
     assert result.reference["converged"], f"the reference did not converge: {result.reference}"
     errors = [row["position_rms"] for row in result.rows]
-    assert all(fine < coarse / 1.5 for coarse, fine in zip(errors, errors[1:])), (
+    assert all(fine < coarse / 1.5 for coarse, fine in pairwise(errors)), (
         f"swing study RMS position error per frequency 768..6144 Hz: {errors} (want each doubling "
         "to cut it by at least 1.5x)"
     )
