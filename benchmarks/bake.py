@@ -1,6 +1,7 @@
 """Bake speed for N x N hanging cloths (issue 3's benchmark scene).
 
     python benchmarks/bake.py [--sizes 32,64,128,255] [--frames 200] [--repeats 3] [--plot FILE]
+                              [--precision float64,float32]
 
 Each cloth is 1 m across, pinned at its two top corners, with geodesic tethers, cotton
 without air drag (as NvCloth's scene), 300 Hz solver frequency at 60 fps (5 iterations per
@@ -9,6 +10,9 @@ median over the repeats of ms per frame (wall and CPU), particle-iterations per 
 the stage breakdown of the median run. JIT compilation is excluded (warm-up is timed apart).
 ``--plot`` writes the CPU time per frame of each size, split by stage, as a bar chart (PNG
 or SVG by the suffix), with NvCloth's figure and the goal at 128^2 marked.
+``--precision`` bakes each size in each listed state precision (solver.precision), the runs
+interleaved so that a shared machine's load falls on all of them alike, and prints each
+precision's time relative to the first one's.
 The native NvCloth CPU solver's reference figure for 128^2 on this machine class is 1.3 ms
 CPU per frame; the goal is within 2x of it.
 """
@@ -35,6 +39,7 @@ frames = [0, {frames}]
 [solver]
 preset = "production"
 frequency = 300.0
+precision = "{precision}"
 fabric_parallel_threshold = {threshold}
 [output]
 attributes = []
@@ -45,7 +50,8 @@ material = {{ preset = "cotton", drag_coefficient = 0.0, lift_coefficient = 0.0 
 """
 
 
-def scene_for(n: int, frames: int, folder: Path, threshold: int = 20000):
+def scene_for(n: int, frames: int, folder: Path, threshold: int = 20000, precision: str = "float64"):
+    folder.mkdir(parents=True, exist_ok=True)
     spacing = 1.0 / (n - 1)
     mesh = grid(n, n, spacing)
     pins = folder / "corners.txt"
@@ -53,7 +59,7 @@ def scene_for(n: int, frames: int, folder: Path, threshold: int = 20000):
     fabric = cook_fabric(mesh, CookOptions(pin_file=str(pins), tethers="geodesic")).fabric
     write_fabric(fabric, folder / "sheet.fabric.h5")
     path = folder / "scene.toml"
-    path.write_text(SCENE.format(frames=frames, threshold=threshold))
+    path.write_text(SCENE.format(frames=frames, threshold=threshold, precision=precision))
     return load_scene(path)
 
 
@@ -65,25 +71,38 @@ def main() -> None:
     parser.add_argument("--fabric-parallel-threshold", type=int, default=20000,
                         help="sets of at least this many constraints use all cores (solver.fabric_parallel_threshold)")
     parser.add_argument("--plot", type=Path, help="write the stage breakdown chart here (.png or .svg)")
+    parser.add_argument("--precision", default="float64",
+                        help="comma-separated state precisions to compare (solver.precision), e.g. float64,float32")
     args = parser.parse_args()
+    precisions = args.precision.split(",")
     rows = []
-    print(f"{'N':>5} {'particles':>9} {'ms/frame':>9} {'cpu ms/f':>9} {'Mpart-it/s':>10}  stages (ms/frame)")
+    print(f"{'N':>5} {'particles':>9} {'precision':>9} {'ms/frame':>9} {'cpu ms/f':>9} {'Mpart-it/s':>10} {'cpu ratio':>9}"
+          "  stages (ms/frame)")
     for n in (int(s) for s in args.sizes.split(",")):
         with tempfile.TemporaryDirectory() as tmp:
-            scene = scene_for(n, args.frames, Path(tmp), args.fabric_parallel_threshold)
-            runs = [bake(scene, "null") for _ in range(args.repeats)]
-        runs.sort(key=lambda r: r.simulation_s)
-        median = runs[len(runs) // 2]
-        report = median.to_dict()
-        frames = median.frames_simulated
-        wall_ms = 1000 * statistics.median(r.simulation_s for r in runs) / frames
-        cpu_ms = 1000 * statistics.median(r.cpu_s - r.jit_s for r in runs) / frames
-        rate = report["timing"]["particle_iterations_per_second"] / 1e6
-        stages = " ".join(
-            f"{row['stage']}={row['per_frame_ms']:.3f}" for row in report["profile"] if row["stage"] != "jit warm-up"
-        )
-        print(f"{n:>5} {n * n:>9} {wall_ms:>9.3f} {cpu_ms:>9.3f} {rate:>10.2f}  {stages}", flush=True)
-        rows.append((n, cpu_ms, {row["stage"]: row["per_frame_ms"] for row in report["profile"] if row["stage"] != "jit warm-up"}))
+            scenes = {p: scene_for(n, args.frames, Path(tmp) / p, args.fabric_parallel_threshold, p) for p in precisions}
+            runs = {p: [] for p in precisions}
+            for _ in range(args.repeats):  # interleaved: a load spike hits every precision alike
+                for precision in precisions:
+                    runs[precision].append(bake(scenes[precision], "null"))
+        first_cpu = None
+        for precision in precisions:
+            ordered = sorted(runs[precision], key=lambda r: r.simulation_s)
+            median = ordered[len(ordered) // 2]
+            report = median.to_dict()
+            frames = median.frames_simulated
+            wall_ms = 1000 * statistics.median(r.simulation_s for r in ordered) / frames
+            cpu_ms = 1000 * statistics.median(r.cpu_s - r.jit_s for r in ordered) / frames
+            first_cpu = cpu_ms if first_cpu is None else first_cpu
+            rate = report["timing"]["particle_iterations_per_second"] / 1e6
+            stages = " ".join(
+                f"{row['stage']}={row['per_frame_ms']:.3f}" for row in report["profile"] if row["stage"] != "jit warm-up"
+            )
+            print(f"{n:>5} {n * n:>9} {precision:>9} {wall_ms:>9.3f} {cpu_ms:>9.3f} {rate:>10.2f} "
+                  f"{cpu_ms / first_cpu:>9.3f}  {stages}", flush=True)
+            if precision == precisions[0]:
+                rows.append((n, cpu_ms, {row["stage"]: row["per_frame_ms"] for row in report["profile"]
+                                         if row["stage"] != "jit warm-up"}))
     if args.plot:
         plot(rows, args.plot)
 

@@ -1,7 +1,7 @@
 """Four-float SIMD values (LLVM ``<4 x float>``) for numba kernels: a particle row at a time.
 
 A particle is four float32 (x, y, z, inverse mass) in a C-contiguous (n, 4) array, 16 bytes:
-one SSE register (float64 state, the precision option, uses <4 x double>). numba has no
+one SSE register (float64 state, the default precision, uses <4 x double>). numba has no
 vector types and leaves LLVM's SLP vectoriser off (it was switched off for miscompiling,
 numba PR #8852), so scalar code reading a row costs four loads and writing it three stores;
 the loop vectoriser cannot help either, because a constraint loop gathers and scatters rows
@@ -29,7 +29,7 @@ _LLVM_FLOAT = {types.float32: ir.FloatType(), types.float64: ir.DoubleType()}
 
 
 class Vec4(types.Type):
-    """Four floats of one dtype (float32: the solver's state; float64: its precision option)."""
+    """Four floats of one dtype (float64: the default state; float32: the faster precision option)."""
 
     def __init__(self, dtype):
         self.dtype = dtype

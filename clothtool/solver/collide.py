@@ -77,7 +77,7 @@ class CollideStage(Stage):
         super().__init__(solver)
         model = solver.model
         material = model.material
-        # collider arrays follow the particle state's precision (float32, or float64 references)
+        # collider arrays follow the particle state's precision (float64 by default, or float32)
         real = self.real = solver.state.cur.dtype.type
         self.thickness = float(material.thickness) / float(model.units_to_meters)
         self.friction = float(material.friction)  # for colliders that give no friction of their own

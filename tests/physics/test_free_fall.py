@@ -49,7 +49,8 @@ FLOAT32_RATES = [(60, 60), (120, 24), (240, 48), (300, 60), (300, 25)]
 @pytest.mark.parametrize("frequency, fps", FLOAT32_RATES)
 def test_free_particle_float32_matches_half_g_t_squared(frequency, fps, build_fabric, solver_for, simulate):
     fabric = build_fabric([[0.0, 0.0, 0.0]], [1.0])
-    solver = solver_for(fabric, config=SolverConfig(frequency=frequency), gravity=G, initial_velocity=V0)
+    config = SolverConfig(frequency=frequency, precision="float32")
+    solver = solver_for(fabric, config=config, gravity=G, initial_velocity=V0)
     t = simulate(solver, fps, int(0.5 * fps))
     steps = int(round(t * frequency))
     error = np.abs(solver.world_points()[0].astype(np.float64) - ballistic(np.zeros(3), t)).max()
