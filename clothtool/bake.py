@@ -18,6 +18,7 @@ import numpy as np
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, UnstableError
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameData, open_cache_writer
+from clothtool.io.cache_units import PIN_PRIMVAR
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
 from clothtool.scene.tracks import quat_to_matrices
@@ -208,7 +209,8 @@ def _does_without(scene: Scene, solver: Integrator) -> dict:
 
 def _topology(solver: Integrator, attributes: frozenset[str]) -> ClothTopology:
     fabric = solver.model.fabric
-    primvars = {"inv_mass": solver.model.inv_mass}
+    # The painted pin map as DCCs read it (1 pinned, 0 free); the model marks a pin by inverse mass 0.
+    primvars = {PIN_PRIMVAR: (solver.model.inv_mass == 0).astype(np.float32)}
     if solver.model.has_motion_constraints:
         primvars["max_distance"] = np.where(
             np.isfinite(solver.model.max_distance), solver.model.max_distance, -1.0

@@ -19,6 +19,7 @@ import numpy as np
 
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.atomic import write_error
+from clothtool.io.blender_hints import blender_hints
 from clothtool.io.cache import CacheHeader, ClothTopology, ColliderInfo, FrameData, partial_path
 
 FORMAT_NAME = "clothtool-cache"
@@ -385,6 +386,7 @@ class CacheReader:
             "stats_fields": list(header.stats_fields),
             "metadata": dict(sorted(header.metadata.items())),
             "file_size_bytes": self.path.stat().st_size,
+            "blender_hints": blender_hints(self.format_label, float(header.fps), float(header.meters_per_unit)),
         }
 
 
@@ -408,4 +410,5 @@ def format_cache_summary(summary: dict, name: str) -> str:
         lines.append("  colliders  " + ", ".join(f"{c['name']} ({c['kind']})" for c in summary["colliders"]))
     lines.append("  attributes " + ", ".join(summary["attributes"]))
     lines.append(f"  size       {summary['file_size_bytes'] / 2**20:.2f} MiB")
+    lines.extend(f"  note       {hint}" for hint in summary["blender_hints"])
     return "\n".join(lines)

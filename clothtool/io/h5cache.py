@@ -26,6 +26,7 @@ import numpy as np
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.atomic import check_output_path, temporary_sibling, write_error
+from clothtool.io import cache_units as units
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData
 from clothtool.io.cache_common import (
     _NAME,
@@ -85,45 +86,52 @@ class H5CacheWriter(StreamedCacheWriter):
         except (OSError, RuntimeError) as exc:
             raise self._fail(exc, "writing the header") from None
 
-    def _series(self, group, name: str, shape: tuple, dtype, per_frame_chunk: bool = False):
+    def _series(self, group, name: str, shape: tuple, dtype, unit: str, per_frame_chunk: bool = False):
         # Datasets grow one frame at a time, so a partial file holds exactly the frames written.
         chunks = (1, *shape) if per_frame_chunk else (_SERIES_CHUNK, *shape)
         filters = self._filters if per_frame_chunk else {}
-        return group.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype, chunks=chunks, **filters)
+        dataset = group.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype, chunks=chunks, **filters)
+        dataset.attrs["units"] = unit
+        return dataset
 
     def _create_cloth(self, g, cloth: ClothTopology, header: CacheHeader) -> None:
-        n = cloth.particle_count
-        self._series(g, "P", (n, 3), np.float32, per_frame_chunk=True)
+        n, mpu = cloth.particle_count, header.meters_per_unit
+        self._series(g, "P", (n, 3), np.float32, units.lengths(mpu), per_frame_chunk=True)
         if "velocities" in header.attributes:
-            self._series(g, "v", (n, 3), np.float32, per_frame_chunk=True)
-        self._series(g, "extent", (2, 3), np.float32)
+            self._series(g, "v", (n, 3), np.float32, units.velocities(mpu), per_frame_chunk=True).attrs["frame"] = units.WORLD_FRAME
+        self._series(g, "extent", (2, 3), np.float32, units.lengths(mpu))
         if "rest" in header.attributes:
-            g.create_dataset("rest", data=as_points(cloth.rest_pos))
+            _constant(g, "rest", as_points(cloth.rest_pos), units.lengths(mpu))
         # Topology is always written: the DCCs need it to rebuild the mesh.
-        g.create_dataset("face_vertex_counts", data=np.asarray(cloth.face_vertex_counts, np.int32))
-        g.create_dataset("face_vertex_indices", data=np.asarray(cloth.face_vertex_indices, np.int32))
+        _constant(g, "face_vertex_counts", np.asarray(cloth.face_vertex_counts, np.int32), units.FACE_VERTEX_COUNTS)
+        _constant(g, "face_vertex_indices", np.asarray(cloth.face_vertex_indices, np.int32), units.FACE_VERTEX_INDICES)
         if cloth.face_vertex_uv is not None:
-            g.create_dataset("face_vertex_uv", data=np.asarray(cloth.face_vertex_uv, np.float32))
+            _constant(g, "face_vertex_uv", np.asarray(cloth.face_vertex_uv, np.float32), units.FACE_VERTEX_UV)
         if cloth.vertex_primvars:
             primvars = g.create_group("primvars")
             for key in sorted(cloth.vertex_primvars):
-                primvars.create_dataset(key, data=np.asarray(cloth.vertex_primvars[key], np.float32))
+                _constant(primvars, key, np.asarray(cloth.vertex_primvars[key], np.float32), units.primvar_units(key, mpu))
         if "stats" in header.attributes and header.stats_fields:
             stats = g.create_group("stats")
             for field in header.stats_fields:
-                self._series(stats, field, (), np.float64)
+                unit, frame = units.stat_units(field)
+                dataset = self._series(stats, field, (), np.float64, unit)
+                if frame is not None:
+                    dataset.attrs["frame"] = frame
 
     def _create_collider(self, g, collider: ColliderInfo) -> None:
+        mpu = self._header.meters_per_unit
         g.attrs["kind"] = collider.kind
         g.attrs["params"] = scalar_params_json(collider.params)
-        self._series(g, "xform", (4, 4), np.float64)
+        g.attrs["params_units"] = units.lengths(mpu)
+        self._series(g, "xform", (4, 4), np.float64, units.xform(mpu))
         for key in sorted(collider.params):
             if np.ndim(collider.params[key]):  # convex "planes": (m,4)
-                g.create_dataset(key, data=np.asarray(collider.params[key], np.float64))
+                _constant(g, key, np.asarray(collider.params[key], np.float64), units.planes(mpu))
         if collider.kind == "mesh":
-            g.create_dataset("face_vertex_counts", data=np.asarray(collider.face_vertex_counts, np.int32))
-            g.create_dataset("face_vertex_indices", data=np.asarray(collider.face_vertex_indices, np.int32))
-            g.create_dataset("rest_points", data=as_points(collider.rest_points))
+            _constant(g, "face_vertex_counts", np.asarray(collider.face_vertex_counts, np.int32), units.FACE_VERTEX_COUNTS)
+            _constant(g, "face_vertex_indices", np.asarray(collider.face_vertex_indices, np.int32), units.FACE_VERTEX_INDICES)
+            _constant(g, "rest_points", as_points(collider.rest_points), units.lengths(mpu))
 
     def write_frame(self, frame: FrameData) -> None:
         header = self._check_next_frame(frame)
@@ -167,7 +175,7 @@ class H5CacheWriter(StreamedCacheWriter):
             _append(g["xform"], k, np.asarray(frame.collider_xforms[i], np.float64))
             if i in moved:
                 if k == 0:  # created on the first frame: only deforming meshes get one
-                    self._series(g, "P", moved[i].shape, np.float32, per_frame_chunk=True)
+                    self._series(g, "P", moved[i].shape, np.float32, units.lengths(header.meters_per_unit), per_frame_chunk=True)
                 _append(g["P"], k, moved[i])
 
     def _release(self, keep: bool) -> bool:
@@ -208,6 +216,11 @@ class H5CacheWriter(StreamedCacheWriter):
         except (ClothtoolError, OSError, RuntimeError):
             return False
         return True
+
+
+def _constant(group, name: str, data: np.ndarray, unit: str) -> None:
+    """A dataset written once, with what its numbers mean."""
+    group.create_dataset(name, data=data).attrs["units"] = unit
 
 
 def _append(dataset, k: int, value) -> None:

@@ -23,6 +23,7 @@ from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.atomic import check_output_path, temporary_sibling, write_error
+from clothtool.io import cache_units as units
 from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, ColliderInfo, FrameData
 from clothtool.io.cache_common import (
     CacheReader,
@@ -322,12 +323,17 @@ def _define_cloth(stage: Usd.Stage, cloth: ClothTopology, header: CacheHeader) -
     for key in sorted(cloth.vertex_primvars):
         extra = primvars.CreatePrimvar(f"clothtool:{key}", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex)
         extra.Set(Vt.FloatArray.FromNumpy(np.ascontiguousarray(cloth.vertex_primvars[key], np.float32)))
+        extra.GetAttr().SetCustomDataByKey("clothtool:units", units.primvar_units(key, header.meters_per_unit))
     paths = {"points": mesh.CreatePointsAttr().GetPath(), "extent": mesh.CreateExtentAttr().GetPath(), "stats": {}}
     if "velocities" in header.attributes:
         paths["velocities"] = mesh.CreateVelocitiesAttr().GetPath()
     if "stats" in header.attributes:
         for field in header.stats_fields:
             attr = mesh.GetPrim().CreateAttribute(_STATS_PREFIX + field, Sdf.ValueTypeNames.Double, custom=True)
+            unit, frame = units.stat_units(field)
+            attr.SetCustomDataByKey("clothtool:units", unit)
+            if frame is not None:
+                attr.SetCustomDataByKey("clothtool:frame", frame)
             paths["stats"][field] = attr.GetPath()
     return paths
 

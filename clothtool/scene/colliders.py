@@ -4,7 +4,9 @@ Each ``[collider.NAME]`` has a ``kind`` (sphere, capsule, plane, convex, mesh), 
 its own local coordinates, an optional ``track`` that moves it (local -> world, with
 scale), a ``thickness`` (margin, scene units) and a ``friction`` coefficient. Mesh colliders
 come from any mesh file ``clothtool cook`` reads and may deform with per-frame points from an
-NPZ file (arrays ``frame`` (k,) and ``points`` (k, m, 3)).
+NPZ file (arrays ``frame`` (k,) and ``points`` (k, m, 3)). In a USD file ``prim`` picks the
+mesh; a prim that moves (time-sampled points or transform) or is skinned with UsdSkel is
+read as a USD stage's bodies are (``clothtool.scene.usdbodies``) over the scene's frames.
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ KIND_KEYS = {
     "capsule": ("start", "end", "radius", "radii"),
     "plane": ("point", "normal"),
     "convex": ("planes", "box"),
-    "mesh": ("mesh", "deform"),
+    "mesh": ("mesh", "deform", "prim"),
 }
 
 
@@ -293,7 +295,7 @@ def _mesh(ctx, table: dict, where: str):
 
     path = ctx.base / str(table["mesh"])
     try:
-        mesh = read_mesh(path)
+        mesh = read_mesh(path, table.get("prim"))
     except ClothtoolError as exc:
         ctx.fail(where, f"mesh: {exc}")
     triangles, _ = topology.triangulate(mesh.face_vertex_counts, mesh.face_vertex_indices)
@@ -324,7 +326,39 @@ def _mesh(ctx, table: dict, where: str):
     )
 
 
-def _collider(ctx, name: str, table: dict, tracks: dict[str, Track], fps: float) -> Collider:
+def _moving_usd_body(ctx, name: str, table: dict, where: str, shot: Shot) -> Collider | None:
+    """The collider of ``table``'s USD ``prim`` when it moves or is skinned (sampled over the
+    scene's frames as a USD stage's bodies are); None for a still prim, which reads as any mesh."""
+    from clothtool.scene.usdbodies import body_collider, open_stage, shot_clock, skinning_targets, with_preroll
+
+    path, prim_path = ctx.base / str(table["mesh"]), table["prim"]
+    if not isinstance(prim_path, str) or not prim_path.startswith("/"):
+        ctx.fail(where, f"key 'prim' = {prim_path!r}; give the mesh prim's path, like \"/Body\"")
+    if path.suffix.lower() not in (".usd", ".usda", ".usdc"):
+        return None  # read_mesh refuses a prim outside USD files, in one line
+    try:
+        stage = open_stage(path)
+    except ClothtoolError as exc:
+        ctx.fail(where, f"mesh: {exc}")
+    prim = stage.GetPrimAtPath(prim_path)
+    if not prim or prim.GetTypeName() != "Mesh":
+        return None  # read_mesh names the missing prim or the prim that is no mesh
+    source = str(path)
+    try:
+        clock = shot_clock(stage, shot.fps, shot.start, shot.end)
+        body = body_collider(prim, name, clock, skinning_targets(stage, source).get(prim_path), source)
+    except ClothtoolError as exc:
+        ctx.fail(where, f"mesh: {exc}")
+    if body.deform_points is None and (body.track is None or body.track.is_static):
+        return None  # a still body: the mesh as read_mesh places it, and 'track' may move it
+    for key in ("track", "deform"):
+        if key in table:
+            ctx.fail(where, f"key '{key}': prim {prim_path} of {path.name} moves by its own animation; drop '{key}'")
+    return with_preroll(body, clock, shot.fps, shot.start, shot.preroll)
+
+
+def _collider(ctx, name: str, table: dict, tracks: dict[str, Track], shot: Shot) -> Collider:
+    fps = shot.fps
     where = f"collider.{name}"
     if not isinstance(table, dict):
         ctx.fail(where, "must be a table with a 'kind'")
@@ -370,15 +404,29 @@ def _collider(ctx, name: str, table: dict, tracks: dict[str, Track], fps: float)
         return Collider(centers=none3, radii=none1, planes=_planes(ctx, table, where), **common)
     if "mesh" not in table:
         ctx.fail(where, "a mesh collider needs 'mesh' = a mesh file")
+    if "prim" in table:
+        body = _moving_usd_body(ctx, name, table, where, shot)
+        if body is not None:
+            return dataclasses.replace(body, thickness=thickness, friction=friction)
     points, triangles, faces, frames, deform = _mesh(ctx, table, where)
     return Collider(centers=none3, radii=none1, planes=no_planes, mesh_points=points, mesh_triangles=triangles,
                     mesh_faces=faces, deform_frames=frames, deform_points=deform, **common)
 
 
-def load_colliders(ctx, tables: dict, tracks: dict[str, Track], fps: float) -> SceneColliders:
+@dataclasses.dataclass(frozen=True)
+class Shot:
+    """The scene's frames (at ``fps``, pre-roll included) that moving USD bodies are sampled over."""
+
+    fps: float
+    start: int
+    end: int
+    preroll: int = 0
+
+
+def load_colliders(ctx, tables: dict, tracks: dict[str, Track], shot: Shot) -> SceneColliders:
     if not isinstance(tables, dict):
         raise SceneError(f"{ctx.path}: [collider] must hold tables like [collider.NAME]")
-    return SceneColliders(tuple(_collider(ctx, name, table, tracks, fps) for name, table in tables.items()))
+    return SceneColliders(tuple(_collider(ctx, name, table, tracks, shot) for name, table in tables.items()))
 
 
 def collider_paths(tables: dict, base: Path) -> list[Path]:

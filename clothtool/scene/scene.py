@@ -422,16 +422,16 @@ def load_scene(
         if not cloth.name.replace("_", "a").isalnum() or cloth.name[0].isdigit():
             ctx.fail(f"cloth.{cloth.name}", "cloth names must be letters, digits and underscores, not starting with a digit")
     wind = _wind(ctx, tables["wind"], tracks) if "wind" in tables else None
+    preroll = preroll_of(ctx, tables.get("scene", {}))
     colliders = None
     if "collider" in tables:
-        from clothtool.scene.colliders import load_colliders
+        from clothtool.scene.colliders import Shot, load_colliders
 
-        colliders = load_colliders(ctx, tables["collider"], tracks, fps)
+        colliders = load_colliders(ctx, tables["collider"], tracks, Shot(fps, start, end, preroll))
     for cloth in cloths:
         kinds = {c.name: c.kind for c in colliders.colliders} if colliders is not None else {}
         missing = [a for a in cloth.attach if kinds.get(a) != "mesh"]
         if missing:
             meshes = [n for n, k in kinds.items() if k == "mesh"]
             ctx.fail(f"cloth.{cloth.name}", f"key 'attach' names '{missing[0]}', which is no mesh collider; mesh colliders: {', '.join(meshes) or 'none'}")
-    preroll = preroll_of(ctx, tables.get("scene", {}))
     return Scene(name, path, fps, start, end, mpu, up_axis, gravity, solver, cloths, wind, tracks, output, colliders, preroll)

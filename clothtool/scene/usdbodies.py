@@ -15,6 +15,9 @@ Times: a stage's time codes are frames at ``timeCodesPerSecond``; tracks are in 
 
 from __future__ import annotations
 
+import dataclasses
+from pathlib import Path
+
 import numpy as np
 
 from clothtool.errors import SceneError
@@ -37,6 +40,43 @@ class ShotClock:
     @property
     def frames(self) -> np.ndarray:
         return np.arange(self.first, self.last + 1, dtype=np.float64)
+
+
+def open_stage(path: Path):
+    """The composed stage of ``path``, its layers noted as inputs; SceneError when USD cannot open it."""
+    from pxr import Usd
+
+    import clothtool.io.usd_env  # noqa: F401  (before pxr: how crate files are read)
+    from clothtool.inputs import note_input
+    from clothtool.io.usd_env import quiet_stderr
+
+    with quiet_stderr():
+        try:
+            stage = Usd.Stage.Open(str(path))
+        except Exception as exc:  # pxr raises Tf.ErrorException for unreadable layers
+            raise SceneError(f"{path}: USD cannot open the stage ({' '.join(str(exc).split())[:160]}); check the file") from None
+    if stage is None:
+        raise SceneError(f"{path}: USD cannot open the stage; check the file")
+    for layer in stage.GetUsedLayers():
+        if layer.realPath:
+            note_input(layer.realPath)
+    return stage
+
+
+def shot_clock(stage, fps: float, start: int, end: int) -> ShotClock:
+    """The stage's time codes that cover scene frames ``start``..``end`` at ``fps`` (the stage
+    may run at another rate: its time codes are converted through seconds)."""
+    tcps = float(stage.GetTimeCodesPerSecond())
+    first = int(np.floor(start / fps * tcps))
+    return ShotClock(tcps, first, max(int(np.ceil(end / fps * tcps)), first + 1))
+
+
+def with_preroll(body: Collider, clock: ShotClock, fps: float, start: int, preroll: int) -> Collider:
+    """A deforming body blends from its rest pose into its first pose over the ``preroll``
+    frames before ``start``, so a garment modelled in the bind pose settles onto it."""
+    if not preroll or body.deform_points is None:
+        return body
+    return dataclasses.replace(body, blend=((start - preroll) / fps * clock.tcps, clock.first))
 
 
 def _matrix(xformable, time_code) -> np.ndarray:

@@ -59,26 +59,6 @@ def is_usd_stage(path: Path) -> bool:
     return Path(path).suffix.lower() in USD_SUFFIXES
 
 
-def _open(path: Path):
-    from pxr import Usd
-
-    import clothtool.io.usd_env  # noqa: F401  (before pxr: how crate files are read)
-    from clothtool.inputs import note_input
-    from clothtool.io.usd_env import quiet_stderr
-
-    with quiet_stderr():
-        try:
-            stage = Usd.Stage.Open(str(path))
-        except Exception as exc:  # pxr raises Tf.ErrorException for unreadable layers
-            raise SceneError(f"{path}: USD cannot open the stage ({' '.join(str(exc).split())[:160]}); check the file") from None
-    if stage is None:
-        raise SceneError(f"{path}: USD cannot open the stage; check the file")
-    for layer in stage.GetUsedLayers():
-        if layer.realPath:
-            note_input(layer.realPath)
-    return stage
-
-
 def _plain(value):
     """A pxr attribute value as TOML would give it (lists, str, float, int, bool)."""
     if hasattr(value, "__len__") and not isinstance(value, str):
@@ -291,12 +271,12 @@ def load_usd_scene(
     """The Scene of a USD stage (see module docstring); ``cloth`` prim paths and ``collider``
     patterns replace the marked prims."""
     from clothtool.scene.colliders import SceneColliders
-    from clothtool.scene.usdbodies import ShotClock, body_collider, skinning_targets
+    from clothtool.scene.usdbodies import body_collider, open_stage, shot_clock, skinning_targets, with_preroll
 
     path = Path(path)
     if not path.is_file():
         raise SceneError(f"{path}: scene file not found; check the path")
-    stage = _open(path)
+    stage = open_stage(path)
     raw = _stage_tables(stage, path, frames)
     check_override_keys(raw, list(overrides), _schema())
     tables = apply_overrides(raw, list(overrides))
@@ -310,18 +290,14 @@ def load_usd_scene(
     output: OutputSettings = _output_table(ctx, tables["output"])
 
     cloth_prims, collider_prims = _select(stage, path, list(cloth), list(collider))
-    tcps = float(stage.GetTimeCodesPerSecond())
-    first = int(np.floor(start / fps * tcps))
-    clock = ShotClock(tcps, first, max(int(np.ceil(end / fps * tcps)), first + 1))
+    clock = shot_clock(stage, fps, start, end)
     skinned = skinning_targets(stage, str(path))
     collider_paths = [str(p.GetPath()) for p in collider_prims]
     collider_names = _names(collider_paths)
     bodies = []
     for prim in collider_prims:
         body = body_collider(prim, collider_names[str(prim.GetPath())], clock, skinned.get(str(prim.GetPath())), str(path))
-        if preroll and body.deform_points is not None:
-            body = dataclasses.replace(body, blend=((start - preroll) / fps * tcps, clock.first))
-        bodies.append(body)
+        bodies.append(with_preroll(body, clock, fps, start, preroll))
     mesh_colliders = [p for p, body in zip(collider_paths, bodies) if body.kind == "mesh"]
     cloth_paths = [str(p.GetPath()) for p in cloth_prims]
     cloth_names = _names(cloth_paths)

@@ -42,7 +42,6 @@ KNOWN = {
     "clothtool.scene.usdbodies -> clothtool.io.usd_env",
     "clothtool.scene.usdstage -> clothtool.cook.cooker",
     "clothtool.scene.usdstage -> clothtool.io.meshin",
-    "clothtool.scene.usdstage -> clothtool.io.usd_env",
     "clothtool.scene.usdstage -> clothtool.solver.config",
     "clothtool.scene.usdstage -> clothtool.solver.model",
     "clothtool.solver.wind -> clothtool.cook.triplets",

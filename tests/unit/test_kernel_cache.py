@@ -193,8 +193,8 @@ from clothtool.profile import StageProfiler
 from clothtool.scene.scene import load_scene
 from clothtool.solver.measure import ClothMeter
 
-# the position-based float32 serial variants: the README walk bake's configuration
-warm_up_kernels(only=lambda v: v.label.startswith("pbd") and "float32 serial" in v.label)
+# the position-based float64 (the default precision) serial variants: the README walk bake's configuration
+warm_up_kernels(only=lambda v: v.label.startswith("pbd") and "float64 serial" in v.label)
 print("warmed", flush=True)
 sys.stdin.readline()  # the test lists the cache's files now
 scene = load_scene(sys.argv[1])
