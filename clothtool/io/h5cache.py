@@ -299,9 +299,21 @@ def _trim(f, frames: int) -> None:
 
     def visit(name, obj):
         if hasattr(obj, "maxshape") and obj.maxshape and obj.maxshape[0] is None and obj.shape[0] > frames:
-            obj.resize(frames, axis=0)
+            if not _has_unwritten_chunk(obj, frames):
+                obj.resize(frames, axis=0)
+            # else: the rows stay, beyond frame_count, where readers ignore them
 
     f.visititems(visit)
+
+
+def _has_unwritten_chunk(dataset, frames: int) -> bool:
+    """Whether a per-frame chunk past ``frames`` was never written (its write failed, the
+    dataset already grown). Shrinking over it fails in HDF5 ("B-tree key not found") and can
+    drop the chunk before it: a frame that was flushed whole."""
+    if dataset.chunks is None or dataset.chunks[0] != 1:
+        return False
+    rest = (0,) * (dataset.ndim - 1)
+    return any(dataset.id.get_chunk_info_by_coord((row, *rest)).byte_offset is None for row in range(frames, dataset.shape[0]))
 
 
 def _write_root_attrs(f, header: CacheHeader) -> None:
