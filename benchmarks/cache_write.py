@@ -6,6 +6,13 @@ grid, different every frame (crate files de-duplicate identical arrays).
 
     python benchmarks/cache_write.py                       # 10k and 100k points, 200 frames
     python benchmarks/cache_write.py --points 100000 --frames 500 --runs 3
+
+``--bake N[,N...]`` instead bakes benchmarks/bake.py's N x N hanging cloth (with the default
+output attributes: points and velocities) into each format and prints the CPU ms per frame
+of the whole bake (simulation, stats and write, JIT excluded) and what each format adds to
+the ``null`` output's figure:
+
+    python benchmarks/cache_write.py --bake 64,128 --frames 200 --runs 3
 """
 
 from __future__ import annotations
@@ -100,6 +107,61 @@ def run_one(config: str, points: int, frames: int, out_dir: Path) -> dict:
     }
 
 
+def bake_one(config: str, n: int, frames: int, out_dir: Path) -> dict:
+    """Bake the N x N hanging cloth into one cache; CPU time of the frames (every thread) and wall time."""
+    sys.path.insert(0, str(REPO / "benchmarks"))
+    from bake import scene_for
+
+    from clothtool.bake import BakeOptions, bake
+    from clothtool.scene.scene import load_scene
+
+    suffix, options = CONFIGS[config]
+    scene_for(n, frames, out_dir)  # writes the fabric and scene.toml
+    toml = out_dir / "scene.toml"
+    toml.write_text(toml.read_text().replace("attributes = []", 'attributes = ["velocities"]'))
+    path = "null" if suffix == "null" else out_dir / f"bench{suffix}"
+    clock = {}
+
+    def at_frame(done: int, total: int) -> None:
+        if done == 2:  # timed from the end of the second frame: set-up and JIT warm-up excluded
+            clock["cpu"], clock["wall"] = time.process_time(), time.perf_counter()
+
+    bake_options = BakeOptions(compression=options.get("compression"), save_every=options.get("save_every"), progress=at_frame)
+    stats = bake(load_scene(toml), path, bake_options)
+    cpu, wall = time.process_time() - clock["cpu"], time.perf_counter() - clock["wall"]  # commit included
+    timed = stats.frames_simulated - 1
+    return {"config": config, "n": n, "frames": timed, "cpu_ms_per_frame": 1e3 * cpu / timed, "wall_ms_per_frame": 1e3 * wall / timed}
+
+
+def measure_bakes(n: int, frames: int, runs: int, configs: list[str]) -> list[dict]:
+    """Median over ``runs`` fresh processes of each format, runs interleaved (the machine's
+    load drifts); ``added`` is the CPU ms per frame over the ``null`` output."""
+    results = {config: [] for config in configs}
+    for _ in range(runs):
+        for config in configs:
+            with tempfile.TemporaryDirectory(prefix="clothtool-bench-") as tmp:
+                out = subprocess.run(
+                    [sys.executable, __file__, "--one-bake", config, "--bake", str(n), "--frames", str(frames), "--dir", tmp],
+                    check=True, capture_output=True, text=True,
+                ).stdout
+            results[config].append(json.loads(out))
+    rows = []
+    for config in configs:
+        rows.append({**results[config][0], **{k: statistics.median(r[k] for r in results[config]) for k in ("cpu_ms_per_frame", "wall_ms_per_frame")}})
+    null = next((r["cpu_ms_per_frame"] for r in rows if r["config"] == "null"), None)
+    for row in rows:
+        row["added"] = None if null is None else row["cpu_ms_per_frame"] - null
+        row["added_pct"] = None if null is None else 100 * row["added"] / null
+    return rows
+
+
+def print_bake_table(rows: list[dict]) -> None:
+    print(f"{'format':<12} {'N':>5} {'frames':>6} {'cpu ms/f':>9} {'wall ms/f':>9} {'added ms/f':>10} {'added %':>8}")
+    for r in rows:
+        added = "" if r["added"] is None else f"{r['added']:>10.3f} {r['added_pct']:>7.1f}%"
+        print(f"{r['config']:<12} {r['n']:>5} {r['frames']:>6} {r['cpu_ms_per_frame']:>9.3f} {r['wall_ms_per_frame']:>9.3f} {added}")
+
+
 def measure(config: str, points: int, frames: int, runs: int) -> dict:
     """Median over ``runs`` fresh processes."""
     results = []
@@ -129,9 +191,18 @@ def main(argv=None) -> None:
     parser.add_argument("--frames", type=int, default=200)
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--formats", nargs="+", default=["null", "h5-gzip", "h5-lzf", "h5-none", "usdc", "usda"], choices=list(CONFIGS))
+    parser.add_argument("--bake", help="N[,N...]: bake the N x N hanging cloth into each format instead")
     parser.add_argument("--one", choices=list(CONFIGS), help=argparse.SUPPRESS)
+    parser.add_argument("--one-bake", choices=list(CONFIGS), help=argparse.SUPPRESS)
     parser.add_argument("--dir", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.one_bake:
+        print(json.dumps(bake_one(args.one_bake, int(args.bake), args.frames, Path(args.dir))))
+        return
+    if args.bake:
+        for n in (int(size) for size in args.bake.split(",")):
+            print_bake_table(measure_bakes(n, args.frames, args.runs, args.formats))
+        return
     if args.one:
         print(json.dumps(run_one(args.one, args.points[0], args.frames, Path(args.dir))))
         return

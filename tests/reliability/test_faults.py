@@ -226,9 +226,11 @@ class SmallDisk:
 @pytest.fixture
 def small_disk(monkeypatch):
     """``small_disk(room, flushes=None) -> SmallDisk``: from then on h5py's dataset writes, dataset creation
-    with data, and file flushes draw on ``room`` bytes (the writers' own calls, unchanged).
-    Where a tmpfs can be mounted, the tests above fill a real disk."""
+    with data, the HDF5 cache's pre-compressed chunks, and file flushes draw on ``room`` bytes (the
+    writers' own calls, unchanged). Where a tmpfs can be mounted, the tests above fill a real disk."""
     import h5py
+
+    from clothtool.io import h5cache
 
     def give(room: int, flushes: int | None = None) -> SmallDisk:
         disk = SmallDisk(room, flushes)
@@ -246,9 +248,14 @@ def small_disk(monkeypatch):
             disk.check_flush()
             flush(file)
 
+        def chunk(dataset, k, data, write_chunk=h5cache.write_chunk):
+            disk.take(len(data))
+            write_chunk(dataset, k, data)
+
         monkeypatch.setattr(h5py.Dataset, "__setitem__", write)
         monkeypatch.setattr(h5py.Group, "create_dataset", create)
         monkeypatch.setattr(h5py.File, "flush", flush_file)
+        monkeypatch.setattr(h5cache, "write_chunk", chunk)
         return disk
 
     return give
@@ -274,6 +281,19 @@ def test_injected_enospc_while_writing_the_hdf5_header_keeps_nothing(scene_dir, 
 
 
 def test_a_disk_full_at_the_final_flush_commits_nothing(scene_dir, out_dir, small_disk):
+    small_disk(10**9, flushes=1 + 6)  # the header's flush and each frame's succeed; the closing one fails
+    scene = scene_dir / "scene200.toml"
+    with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while closing the file") as failure:
+        bake(load_scene(scene, frames=(1, 6)), out_dir / "x.h5")
+    # Every frame was flushed before the disk filled: they read back, so they are kept.
+    assert failure.value.kept == (out_dir / "x.partial.h5", 6)
+    assert leftovers(out_dir) == ["x.partial.h5"]
+    assert_whole_frames(out_dir / "x.partial.h5", scene, 6, complete=True)
+
+
+def test_a_disk_full_at_commit_names_the_queued_last_frame(scene_dir, out_dir, small_disk):
+    """The last frame given compresses while the bake goes on and is written by commit: a disk
+    full then fails that frame, and the frames flushed before it are kept."""
     disk = small_disk(10**9)
 
     def fill_the_disk_after_the_last_frame(done: int, total: int) -> None:
@@ -282,12 +302,11 @@ def test_a_disk_full_at_the_final_flush_commits_nothing(scene_dir, out_dir, smal
 
     options = BakeOptions(progress=fill_the_disk_after_the_last_frame)
     scene = scene_dir / "scene200.toml"
-    with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while closing the file") as failure:
+    with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while writing frame 6 \(No space left on device\)") as failure:
         bake(load_scene(scene, frames=(1, 6)), out_dir / "x.h5", options)
-    # Every frame was flushed before the disk filled: they read back, so they are kept.
-    assert failure.value.kept == (out_dir / "x.partial.h5", 6)
+    assert failure.value.kept == (out_dir / "x.partial.h5", 5) and failure.value.frame == 6
     assert leftovers(out_dir) == ["x.partial.h5"]
-    assert_whole_frames(out_dir / "x.partial.h5", scene, 6, complete=True)
+    assert_whole_frames(out_dir / "x.partial.h5", scene, 5)
 
 
 def test_a_failed_usd_save_is_never_retried_and_nothing_is_kept(scene_dir, out_dir, monkeypatch):

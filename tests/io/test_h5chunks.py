@@ -1,0 +1,136 @@
+"""Pre-compressed HDF5 chunks: the same data HDF5's own shuffle+deflate filters give, any
+reader inflates them, the same input gives the same bytes, and the worker thread's errors
+and the caller's reused arrays are handled."""
+
+from __future__ import annotations
+
+import hashlib
+import shutil
+import subprocess
+import zlib
+
+import h5py
+import numpy as np
+import pytest
+from test_cache_roundtrip import assert_roundtrip, make_frame, make_header, write_cache
+
+from clothtool.errors import ClothtoolError
+from clothtool.io import h5cache
+from clothtool.io.cache import CacheOptions
+from clothtool.io.h5cache import H5CacheWriter, read_h5_cache
+from clothtool.io.h5chunks import encode_chunk, shuffle
+from clothtool.io.hdf5_files import create_hdf5
+
+
+def test_shuffle_groups_each_byte_of_the_elements():
+    # Two float32 elements, bytes a0 a1 a2 a3 b0 b1 b2 b3 -> a0 b0 a1 b1 a2 b2 a3 b3 (HDF5's shuffle).
+    array = np.frombuffer(bytes(range(8)), np.float32)
+    assert shuffle(array) == bytes([0, 4, 1, 5, 2, 6, 3, 7])
+
+
+def h5py_filtered_chunk(tmp_path, array: np.ndarray, compression: str) -> bytes:
+    """The chunk HDF5's own filter pipeline stores for ``array`` (one frame)."""
+    options = {"gzip": dict(compression="gzip", compression_opts=1, shuffle=True), "none": {}}[compression]
+    with create_hdf5(tmp_path / f"reference-{compression}.h5") as f:
+        dataset = f.create_dataset("P", data=array[None], maxshape=(None, *array.shape), chunks=(1, *array.shape), **options)
+        return dataset.id.read_direct_chunk((0, 0, 0))[1]
+
+
+@pytest.mark.parametrize("compression", ["gzip", "none"])
+def test_our_chunk_inflates_to_the_bytes_of_hdf5s_own_filters(tmp_path, compression):
+    points = np.random.default_rng(7).normal(size=(500, 3)).astype(np.float32)
+    ours, theirs = encode_chunk(points, compression), h5py_filtered_chunk(tmp_path, points, compression)
+    inflate = zlib.decompress if compression == "gzip" else bytes
+    assert inflate(ours) == inflate(theirs)
+    if compression == "gzip":  # the shuffled bytes, as HDF5 transposes them
+        assert inflate(ours) == points.view(np.uint8).reshape(-1, 4).T.tobytes()
+        assert len(ours) < 0.95 * points.nbytes
+
+
+@pytest.mark.parametrize("compression", ["gzip", "none"])
+def test_the_cache_reads_back_through_hdf5s_filters(out_dir, compression):
+    header = make_header()
+    path = out_dir / "shot.h5"
+    frames = write_cache(path, header, options=CacheOptions(compression=compression))
+    assert_roundtrip(path, header, frames)
+    with h5py.File(path, "r") as f:  # h5py's plain read: HDF5 inflates and unshuffles each chunk
+        points = f["cloth/skirt/P"]
+        assert points.id.get_chunk_info(0).filter_mask == 0  # every declared filter applied
+        np.testing.assert_array_equal(points[...], np.stack([frame.points[0] for frame in frames]))
+        np.testing.assert_array_equal(f["collider/body/P"][2], frames[2].collider_points[-1])  # a deforming mesh
+
+
+@pytest.mark.skipif(shutil.which("h5dump") is None, reason="h5dump (hdf5-tools) is not installed")
+def test_h5dump_reads_the_compressed_points(out_dir):
+    """The HDF5 command-line tools (their own HDF5 build) inflate the chunks too."""
+    header = make_header()
+    path = out_dir / "shot.h5"
+    frames = write_cache(path, header)
+    for name, expected in (("P", [frame.points[0] for frame in frames]), ("v", [frame.velocities[0] for frame in frames])):
+        dump = out_dir / f"{name}.bin"
+        subprocess.run(["h5dump", "-d", f"/cloth/skirt/{name}", "-b", "LE", "-o", str(dump), str(path)], capture_output=True, check=True)
+        np.testing.assert_array_equal(np.fromfile(dump, "<f4"), np.stack(expected).ravel())
+
+
+def test_same_frames_same_bytes(out_dir):
+    header = make_header(side=30)
+    digests = []
+    for name in ("a.h5", "b.h5"):
+        write_cache(out_dir / name, header)
+        digests.append(hashlib.sha256((out_dir / name).read_bytes()).hexdigest())
+    assert digests[0] == digests[1]
+
+
+def test_arrays_changed_after_write_frame_do_not_reach_the_file(out_dir):
+    """The solver reuses its arrays for the next frame while this one still compresses."""
+    header = make_header()
+    frames = [make_frame(header, f) for f in (3, 4)]
+    with H5CacheWriter(out_dir / "shot.h5", CacheOptions()) as writer:
+        writer.write_header(header)
+        for frame in frames:
+            expected = [p.copy() for p in frame.points], [v.copy() for v in frame.velocities]
+            writer.write_frame(frame)
+            for array in (*frame.points, *frame.velocities):
+                array[...] = np.nan
+        writer.commit()
+    with read_h5_cache(out_dir / "shot.h5") as cache:
+        np.testing.assert_array_equal(cache.points("skirt", 4), expected[0][0])
+        np.testing.assert_array_equal(cache.velocities("scarf", 4), expected[1][1])
+
+
+def test_a_worker_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
+    header = make_header()
+    deflate, calls = h5cache.deflate, []
+
+    def deflate_failing_for_frame_5(data, compression):
+        calls.append(len(calls))
+        if len(calls) > 2 * 5:  # frames 3 and 4 (two cloths' P and v, the body's points), then frame 5 fails
+            raise MemoryError("no room for the compressed chunk")
+        return deflate(data, compression)
+
+    monkeypatch.setattr(h5cache, "deflate", deflate_failing_for_frame_5)
+    writer = H5CacheWriter(out_dir / "shot.h5", CacheOptions())
+    with pytest.raises(ClothtoolError, match=r"shot\.h5: compressing frame 5 failed \(MemoryError: no room for the compressed chunk\)"):
+        with writer:
+            writer.write_header(header)
+            for f in range(3, 11):
+                writer.write_frame(make_frame(header, f))
+    assert writer.frames_written == 2 and writer.kept == (out_dir / "shot.partial.h5", 2)
+    with read_h5_cache(out_dir / "shot.partial.h5") as cache:
+        assert cache.frames == [3, 4]
+        np.testing.assert_array_equal(cache.points("scarf", 4), make_frame(header, 4).points[1])
+
+
+def test_a_worker_error_on_the_last_frame_fails_the_commit(out_dir, monkeypatch):
+    header = make_header(start=1, end=2)
+    deflate = h5cache.deflate
+    writer = H5CacheWriter(out_dir / "shot.h5", CacheOptions())
+    with pytest.raises(ClothtoolError, match=r"compressing frame 2 failed"):
+        with writer:
+            writer.write_header(header)
+            writer.write_frame(make_frame(header, 1))
+            monkeypatch.setattr(h5cache, "deflate", lambda data, compression: 1 / 0)
+            writer.write_frame(make_frame(header, 2))
+            monkeypatch.setattr(h5cache, "deflate", deflate)
+            writer.commit()
+    assert writer.kept == (out_dir / "shot.partial.h5", 1) and not (out_dir / "shot.h5").exists()
