@@ -13,7 +13,7 @@ included). The signed distance is 1-Lipschitz and smooth near a minimum inside a
 edge, so a grid of spacing s misses the true depth by about s^2 / (8 r) for a collider of
 radius r; the grid is chosen fine enough that this is at most ``ACCURACY`` of the cloth's
 thickness (capped at ``MAX_LEVEL`` subdivisions per edge). Triangles far from every collider
-(bounding spheres apart) are skipped, so the cost scales with the faces near the colliders.
+(bounding spheres outside) are skipped, so the cost scales with the faces near the colliders.
 """
 
 from __future__ import annotations
@@ -87,15 +87,6 @@ def _round_cones(colliders: ColliderArrays) -> tuple[np.ndarray, np.ndarray, np.
     return a, b, ra, rb
 
 
-def _segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Distance of points p (t,3) to every segment a-b (q,3): (t,q)."""
-    ba = b - a
-    l2 = np.maximum(np.sum(ba * ba, axis=-1), 1e-30)
-    pa = p[:, None, :] - a[None]
-    u = np.clip(np.sum(pa * ba[None], axis=-1) / l2, 0.0, 1.0)
-    return np.linalg.norm(pa - u[..., None] * ba[None], axis=-1)
-
-
 def grid_level(edge: float, radius: float, thickness: float) -> int:
     """Subdivisions per edge so the grid's error (spacing^2 / (8 radius)) is at most
     ACCURACY * thickness (all lengths in the same unit)."""
@@ -120,8 +111,9 @@ def face_penetration(
     corners = p[triangles]  # (t,3,3)
     centroid = corners.mean(axis=1)
     reach = np.linalg.norm(corners - centroid[:, None], axis=-1).max(axis=1)
-    # a triangle can touch a collider only when its bounding sphere reaches the capsule
-    near = _segment_distance(centroid, a, b) <= reach[:, None] + np.maximum(ra, rb)[None]
+    # the distance is 1-Lipschitz: a triangle reaches into a collider only when its centroid
+    # is within the triangle's bounding radius of it
+    near = round_cone_distance(centroid[:, None], a[None], b[None], ra[None], rb[None]) <= reach[:, None]
     tri, col = np.nonzero(near)
     if tri.shape[0] == 0:
         return FacePenetration(-np.inf, 0)
