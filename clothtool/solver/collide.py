@@ -87,7 +87,10 @@ class CollideStage(Stage):
         fabric = model.fabric
         self.virtual = np.ascontiguousarray(fabric.virtual_particles, I32)
         self.virtual_weights = np.ascontiguousarray(fabric.virtual_particle_weights, real)
-        self.face_collision = bool(solver.config.face_collision)
+        # face points collide discretely: a thin collider crossing more than its width in an
+        # iteration (what continuous collision is for) would push them out its far side,
+        # dragging the faces through it, so with continuous collision particles alone collide
+        self.face_collision = bool(solver.config.face_collision) and not self.continuous
         self.face_points = 0  # collision points added inside faces (see _add_face_points)
         self._faces_sized = False
         self.frame = np.zeros((8, 3))  # the cloth frame's poses at the iteration's start and end

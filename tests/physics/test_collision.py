@@ -252,8 +252,7 @@ def test_thin_fast_capsule_does_not_tunnel_with_continuous_collision(curtain, co
     swept along z) holds the particles of row 15; after the sweep every one of them must be on
     the capsule's far side of its start (pushed along, z beyond the capsule's back), none
     left behind it. Without continuous collision they are all left behind."""
-    # particles only: face collision points collide discretely, and a capsule crossing more
-    # than its width per iteration pushes them out its far side
+    # particles only, as with continuous collision; without it, the control, too
     config = SolverConfig(frequency=300.0, continuous_collision=continuous, face_collision=False)
     solver = solver_for(curtain, sweep, config)
     fps = 60.0

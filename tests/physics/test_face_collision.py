@@ -156,3 +156,17 @@ def test_face_collision_keeps_every_face_within_the_thickness():
     assert all(d.faces_beyond == 0 for d in depths), [d.faces_beyond for d in depths]
     assert max(d.depth for d in depths) <= THICKNESS
     assert max(d.depth for d in depths) > -3 * THICKNESS  # it does drape on the rod
+
+
+def test_no_face_points_with_continuous_collision():
+    """Continuous collision is for colliders crossing the cloth faster than their width per
+    iteration, which would push discrete face points out their far side: particles alone then."""
+    fabric = cloth_fabric(16, 0.75, 0.05)
+    colliders = capsule(*ROD, (ROD_RADIUS, ROD_RADIUS))
+    stages = {}
+    for continuous in (False, True):
+        solver = solver_for(fabric, colliders, SolverConfig(continuous_collision=continuous))
+        run(solver, 1)
+        stages[continuous] = solver.stages[solver.stage_names.index("collide")]
+    assert stages[False].face_points == stages[False].virtual.shape[0] > 0
+    assert stages[True].face_points == stages[True].virtual.shape[0] == 0
