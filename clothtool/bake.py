@@ -96,6 +96,10 @@ class BakeStats:
             }
             if "tether_stretch" in frames[0]:
                 entry["max_tether_stretch"] = max(f["tether_stretch"] for f in frames)
+            if "max_penetration" in frames[0]:  # faces in sphere and capsule colliders, metres
+                entry["max_penetration"] = max(f["max_penetration"] for f in frames)
+                entry["max_faces_beyond_thickness"] = max(f["faces_beyond_thickness"] for f in frames)
+                entry["frames_with_faces_beyond_thickness"] = sum(f["faces_beyond_thickness"] > 0 for f in frames)
             summary[name] = entry
         return summary
 
@@ -341,7 +345,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                 with profiler.stage("stats"):
                     per_cloth = {}
                     for solver, meter, plan in zip(solvers, meters, plans):
-                        cloth_stats = meter.measure(plan.h, options.percentiles)
+                        cloth_stats = meter.measure(plan.h, options.percentiles, plan.end)
                         cloth_stats["asleep"] = solver.asleep  # asleep at the frame's end
                         cloth_stats.update(solver.frame_stats())  # e.g. the implicit solver's CG figures
                         per_cloth[solver.model.name] = cloth_stats

@@ -34,6 +34,11 @@ def format_summary(report: dict) -> str:
         lines.append(
             f"  {name:<10} max strain {strain}; max speed {cloth['max_speed']:.3g} m/s"
             + (f"; tether stretch {100 * cloth['max_tether_stretch']:.2f}%" if "max_tether_stretch" in cloth else "")
+            + (
+                f"; faces in colliders {1000 * cloth['max_penetration']:.2f} mm deep, beyond the thickness in "
+                f"{cloth['frames_with_faces_beyond_thickness']} frames"
+                if "max_penetration" in cloth else ""
+            )
         )
     if report["failure"]:
         lines.append(f"  failure    {report['failure']['message']}")

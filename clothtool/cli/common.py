@@ -42,11 +42,17 @@ def one_line(text: str) -> str:
 
 
 class CommandError(click.ClickException):
-    """One ``Error: ...`` line on stderr; exit code 1, or 2 for a usage error."""
+    """One ``Error: ...`` line on stderr and exit code 1."""
 
-    def __init__(self, message: str, exit_code: int = 1):
+    def __init__(self, message: str):
         super().__init__(one_line(message))
-        self.exit_code = exit_code
+
+
+class CommandUsageError(CommandError):
+    """One ``Error: ...`` line on stderr and exit code 2: the command was asked for something
+    it cannot do."""
+
+    exit_code = 2
 
 
 class OneLineErrorGroup(click.Group):
@@ -59,7 +65,7 @@ class OneLineErrorGroup(click.Group):
             return super().invoke(ctx)
         except click.UsageError as exc:
             where = exc.ctx.command_path if exc.ctx is not None else ctx.command_path
-            raise CommandError(f"{exc.format_message()} (see '{where} --help')", exit_code=2) from None
+            raise CommandUsageError(f"{exc.format_message()} (see '{where} --help')") from None
 
 
 class Interrupted(KeyboardInterrupt):
@@ -147,7 +153,7 @@ def handle_errors(func):
             with signals_interrupt():
                 return func(*args, **kwargs)
         except UsageError as exc:
-            raise CommandError(str(exc), exit_code=2) from None
+            raise CommandUsageError(str(exc)) from None
         except ClothtoolError as exc:
             raise CommandError(str(exc) + kept_note(exc)) from None
         except KeyboardInterrupt as exc:

@@ -6,7 +6,8 @@ triangle-mesh colliders. Each iteration it interpolates the colliders linearly t
 iteration's start (alpha0) and end (alpha1), moves them into the cloth's frame when the cloth
 simulates in a moving frame (start with the frame's pose at the iteration's start,
 ``history.before``, end with ``history.now``), then runs the collide kernels over the
-particles and the fabric's virtual particles. Margins are each collider's thickness plus the
+particles, the fabric's virtual particles and the collision points the stage adds inside faces
+too large for the smallest sphere or capsule (clothtool.solver.facepoints). Margins are each collider's thickness plus the
 cloth material's thickness (metres, converted to scene units).
 
 See clothtool.solver.kernels.collide for what a contact does (push-out averaging, friction,
@@ -22,6 +23,7 @@ import numpy as np
 
 from clothtool.errors import SceneError
 from clothtool.solver.colliders import ColliderArrays, friction_or
+from clothtool.solver.facepoints import face_points
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.collide import (
     collide_particles,
@@ -90,6 +92,12 @@ class CollideStage(Stage):
         fabric = model.fabric
         self.virtual = np.ascontiguousarray(fabric.virtual_particles, I32)
         self.virtual_weights = np.ascontiguousarray(fabric.virtual_particle_weights, real)
+        # face points collide discretely: a thin collider crossing more than its width in an
+        # iteration (what continuous collision is for) would push them out its far side,
+        # dragging the faces through it, so with continuous collision particles alone collide
+        self.face_collision = bool(solver.config.face_collision) and not self.continuous
+        self.face_points = 0  # collision points added inside faces (see _add_face_points)
+        self._faces_sized = False
         self.frame = np.zeros((8, 3))  # the cloth frame's poses at the iteration's start and end
         self.frame[0:3] = self.frame[4:7] = np.eye(3)
         # world-space samples at the frame's start and end, and per-primitive parameters
@@ -136,6 +144,8 @@ class CollideStage(Stage):
         self._copy_convexes(start, end)
         self._copy_meshes(start, end)
         self.kernel = self._kernel_for(start)
+        if self.face_collision and not self._faces_sized:
+            self._add_face_points(start)
         self._frame_serial += 1
         self._end_key = None
 
@@ -146,6 +156,28 @@ class CollideStage(Stage):
         convexes = colliders.convex_plane_offsets.shape[0] > 1
         serial, parallel = collide_particles_for(meshes, convexes, self.continuous)
         return parallel if self.parallel else serial
+
+    def _add_face_points(self, colliders: ColliderArrays) -> None:
+        """Once, at the first frame: collision points inside the faces too large for the
+        smallest sphere or capsule (its radius plus margins), after the fabric's own."""
+        self._faces_sized = True
+        spheres = np.flatnonzero(colliders.sphere_is_collider)
+        ends = colliders.capsule_spheres
+        radii = np.concatenate([
+            colliders.sphere_radius[spheres] + colliders.sphere_margin[spheres],
+            colliders.sphere_radius[ends[:, 0]] + colliders.capsule_margin,
+            colliders.sphere_radius[ends[:, 1]] + colliders.capsule_margin,
+        ])
+        if radii.shape[0] == 0:
+            return
+        model = self.solver.model
+        rows, weights = face_points(model.rest_pos, model.triangles, float(radii.min()), self.thickness)
+        if rows.shape[0] == 0:
+            return
+        rows[:, 3] += self.virtual_weights.shape[0]
+        self.virtual = np.ascontiguousarray(np.concatenate([self.virtual, rows]), I32)
+        self.virtual_weights = np.ascontiguousarray(np.concatenate([self.virtual_weights, weights]), self.real)
+        self.face_points = int(rows.shape[0])
 
     @staticmethod
     def _check_same_layout(start: ColliderArrays, end: ColliderArrays, plan: FramePlan) -> None:
@@ -297,7 +329,9 @@ class CollideStage(Stage):
         self.kernel(
             shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale, self.meters_per_unit, state.cur[:0]
         )
-        if self.virtual.shape[0]:  # as in run(): a big kernel, compiled only for fabrics that have virtual particles
+        # as in run(): a big kernel, compiled only for fabrics with virtual particles, or when
+        # begin_frame will add face points (face collision against spheres or capsules)
+        if self.virtual.shape[0] or (self.face_collision and colliders.has_spheres_or_capsules):
             collide_virtual(
                 self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.mass_scale,
                 self.meters_per_unit, state.cur[:0],

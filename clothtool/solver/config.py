@@ -129,6 +129,11 @@ class SolverConfig:
     strain_limit: implicit: edges are kept within this strain after collisions (0 = off).
     cloth_collision: cloths of a scene keep their particles apart (each material's
         self_collision_distance; a pair keeps the larger of the two).
+    face_collision: position-based: faces collide with spheres and capsules, not only
+        particles: triangles too large for the smallest one get collision points inside
+        (clothtool.solver.facepoints), so no face sinks into a collider between particles.
+        Not with continuous_collision (the points collide discretely and would undo it for
+        a thin collider crossing the cloth faster than its width per iteration).
     """
 
     frequency: float = 300.0
@@ -152,6 +157,7 @@ class SolverConfig:
     compression_ratio: float = 0.1
     strain_limit: float = 0.1
     cloth_collision: bool = False
+    face_collision: bool = True
 
     def check(self, where: str) -> None:
         for key in ("frequency", "stiffness_frequency"):

@@ -1,7 +1,9 @@
-"""Per-frame measurements of one cloth: strain per phase type, tether stretch, speed, energy.
+"""Per-frame measurements of one cloth: strain per phase type, tether stretch, speed, energy,
+and how deep its faces sink into sphere and capsule colliders.
 
 Speeds and kinetic energy are relative to the cloth's frame (the world for a cloth without
-a track), in SI units (m/s, J).
+a track), in SI units (m/s, J). Face penetration (clothtool.solver.penetration) is measured
+at the frame's end pose of the colliders, in metres, when the scene has colliders.
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch, upper_percentile
+from clothtool.solver.penetration import face_penetration
 
 PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
 
@@ -26,6 +29,7 @@ class ClothMeter:
                 self.spans.setdefault(label, []).append((first, last))
         self.strain = np.zeros(model.constraint_indices.shape[0], solver.state.cur.dtype)
         self.has_tethers = model.has_tethers
+        self.colliders = solver.environment.colliders
 
     def warm_up(self, percentiles: bool = True) -> None:
         """Compile the kernels ``measure(h, percentiles)`` calls (with percentiles: the
@@ -40,8 +44,9 @@ class ClothMeter:
         if self.has_tethers:
             tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
 
-    def measure(self, h: float, percentiles: bool) -> dict:
-        """Stats after the last iteration of a frame of iteration length ``h``."""
+    def measure(self, h: float, percentiles: bool, time: float | None = None) -> dict:
+        """Stats after the last iteration of a frame of iteration length ``h`` ending at
+        ``time`` (seconds; face penetration is measured when given and there are colliders)."""
         model, state = self.solver.model, self.solver.state
         to_m = model.units_to_meters
         indices, rest = model.constraint_indices, model.constraint_rest_length
@@ -78,4 +83,10 @@ class ClothMeter:
         }
         if self.has_tethers:
             stats["tether_stretch"] = float(tether_stretch(model.tether_anchor, model.tether_rest_length, state.cur))
+        if time is not None and self.colliders is not None:
+            faces = face_penetration(
+                self.solver.world_points(), model.triangles, self.colliders(time), to_m, float(model.material.thickness)
+            )
+            stats["max_penetration"] = max(faces.depth, 0.0)
+            stats["faces_beyond_thickness"] = faces.faces_beyond
         return stats

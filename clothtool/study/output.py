@@ -17,7 +17,7 @@ from clothtool.io.atomic import atomic_output
 METRIC_COLUMNS = {
     "position": ("position_rms", "RMS position error / cloth size"),
     "strain": ("strain_max", "max strain"),
-    "penetration": ("penetration_max", "max penetration (m)"),
+    "penetration": ("penetration_max", "max face penetration into spheres and capsules (m)"),
     "energy": ("energy_drift_J", "|energy drift| (J)"),
 }
 COLUMNS = (
