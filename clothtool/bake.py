@@ -35,11 +35,15 @@ STATS_FIELDS = ("max_speed", "kinetic_energy", "max_strain", "tether_stretch")
 @dataclasses.dataclass(frozen=True)
 class BakeOptions:
     """percentiles: also compute p99 strain per frame (costs a sort per phase type);
+    penetration: also measure how deep the faces sink into sphere and capsule colliders each
+        frame (clothtool.solver.penetration, numpy: ~4 ms a frame for the walk's skirt, ~50 ms
+        for a 128^2 sheet on a sphere, so benchmarks and library bakes leave it off);
     compression / save_every: override the scene's output settings when given;
     progress: called as progress(frames_done, frames_total) after each frame;
     metadata: extra string metadata for the cache header (e.g. a wedge's settings)."""
 
     percentiles: bool = False
+    penetration: bool = False
     compression: str | None = None
     save_every: int | None = None
     progress: Callable[[int, int], None] | None = None
@@ -345,7 +349,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                 with profiler.stage("stats"):
                     per_cloth = {}
                     for solver, meter, plan in zip(solvers, meters, plans):
-                        cloth_stats = meter.measure(plan.h, options.percentiles, plan.end)
+                        cloth_stats = meter.measure(plan.h, options.percentiles, plan.end if options.penetration else None)
                         cloth_stats["asleep"] = solver.asleep  # asleep at the frame's end
                         cloth_stats.update(solver.frame_stats())  # e.g. the implicit solver's CG figures
                         per_cloth[solver.model.name] = cloth_stats

@@ -120,7 +120,7 @@ def _bake(job: Job, stats: dict) -> tuple[dict, dict]:
         raise ClothtoolError(f"{job.output}: a batch bake writes a cache file; name it .usdc, .usda, .usd or .h5")
     scene = load_for_bake(job.input, job.output, list(job.overrides) + job.wedge_overrides, job.frames, job.strict)
     try:
-        report = bake(scene, job.output, BakeOptions(metadata=wedge_metadata(job))).to_dict()
+        report = bake(scene, job.output, BakeOptions(penetration=True, metadata=wedge_metadata(job))).to_dict()
     except UnstableError as exc:
         if getattr(exc, "stats", None) is not None:  # keep the headline figures of the failed bake
             stats.update(headline_stats(exc.stats.to_dict()))

@@ -78,7 +78,7 @@ def _keep_every(scene: Scene) -> int:
 
 def _bake_once(scene: Scene) -> Bake:
     writer = MemoryCacheWriter(keep_every=_keep_every(scene))
-    stats = bake(scene, writer, BakeOptions(percentiles=True))
+    stats = bake(scene, writer, BakeOptions(percentiles=True, penetration=True))
     masses = tuple(c.fabric.particle_area.astype(np.float64) * c.material.areal_density for c in scene.cloths)
     return Bake(writer.frames, stats.to_dict(), stats.simulation_s, masses)
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from clothtool.bake import bake
+from clothtool.bake import BakeOptions, bake
 from clothtool.io.cache import read_cache
 from clothtool.scene.scene import load_scene
 from clothtool.solver.penetration import face_penetration
@@ -23,7 +23,7 @@ def cache_penetration(tmp_path: Path, face_collision: bool) -> dict[int, tuple[f
     """Per frame of the baked cache: (deepest face point in a collider in m, faces beyond the thickness)."""
     scene = load_scene(WALK, [f"solver.face_collision={str(face_collision).lower()}"], frames=FRAMES)
     cache = tmp_path / f"walk_{face_collision}.h5"
-    stats = bake(scene, cache)
+    stats = bake(scene, cache, BakeOptions(penetration=True))
     cloth = scene.cloths[0]
     triangles = cloth.fabric.triangles
     thickness = cloth.material.thickness
