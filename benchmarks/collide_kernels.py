@@ -20,11 +20,11 @@ import numpy as np
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
+from clothtool.settings import Material, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import Material, SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 
 FPS = 30.0
 GRAVITY = np.array([0.0, -9.81, 0.0])

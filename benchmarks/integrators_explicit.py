@@ -22,10 +22,10 @@ from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.integrators.explicit import ExplicitClothSolver
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
+from clothtool.settings import Placement, SolverConfig, load_material
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import SolverConfig, load_material
 from clothtool.solver.environment import Environment
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 
 FPS = 24.0
 

@@ -25,10 +25,10 @@ from clothtool.integrators.implicit.solver import ImplicitClothSolver
 from clothtool.mesh.shapes import grid
 from clothtool.mesh.topology import vertex_areas
 from clothtool.profile import StageProfiler
+from clothtool.settings import Placement, SolverConfig, load_material
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import SolverConfig, load_material
 from clothtool.solver.environment import Environment
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 
 
 def sheet(n: int) -> Fabric:

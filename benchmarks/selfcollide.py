@@ -34,11 +34,11 @@ from clothtool.io.fabric_file import write_fabric
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import load_scene
+from clothtool.settings import Material, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
-from clothtool.solver.config import Material, SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.iteration import Iteration
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 from clothtool.solver.selfcollide import SelfCollideStage
 
 SCENE = """

@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository, 
 
 import numpy as np  # noqa: E402
 
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig  # noqa: E402
+from clothtool.settings import Material, PhaseSettings, SolverConfig  # noqa: E402
 from tests.physics import test_analytic_conical_pendulum as conical  # noqa: E402
 from tests.physics import test_analytic_oscillator as oscillator  # noqa: E402
 from tests.physics import test_analytic_pendulum as pendulum  # noqa: E402

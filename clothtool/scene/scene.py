@@ -20,8 +20,7 @@ from clothtool.presets import read_toml
 from clothtool.scene.overrides import Named, apply_overrides, check_override_keys
 from clothtool.scene.trackload import TRACK_KEYS, load_track
 from clothtool.scene.tracks import Track, euler_xyz_to_quat, quat_to_matrix
-from clothtool.solver.config import Material, SolverConfig, load_material, load_solver
-from clothtool.solver.model import BackstopSettings, MotionSettings, Placement
+from clothtool.settings import BackstopSettings, Material, MotionSettings, Placement, SolverConfig, load_material, load_solver
 
 if TYPE_CHECKING:  # pragma: no cover
     from clothtool.scene.colliders import SceneColliders
@@ -332,7 +331,7 @@ def override_schema() -> dict:
     """The keys ``--set`` may name (see clothtool.scene.overrides.check_override_keys)."""
     from clothtool.cook.cooker import CookOptions
     from clothtool.scene.colliders import COMMON_KEYS, KIND_KEYS
-    from clothtool.solver.config import PhaseSettings
+    from clothtool.settings import PhaseSettings
 
     phase = _keys(_fields(PhaseSettings))
     phases = {label: phase for label in ("vertical", "horizontal", "shearing", "bending")}

@@ -40,8 +40,7 @@ from clothtool.scene.scene import (
     override_schema,
     preroll_of,
 )
-from clothtool.solver.config import load_material, load_solver
-from clothtool.solver.model import MotionSettings, Placement
+from clothtool.settings import MotionSettings, Placement, load_material, load_solver
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc", ".usdz")
 ROLE_ATTR = "clothtool:role"

@@ -8,7 +8,7 @@ from typing import Callable
 import numpy as np
 
 from clothtool.profile import StageProfiler
-from clothtool.solver.config import SolverConfig
+from clothtool.settings import SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import FrameHistory, FrameInertia, FramePath, Pose, extrapolated_path
 from clothtool.solver.iteration import FramePlan, Iteration

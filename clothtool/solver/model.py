@@ -13,7 +13,7 @@ import numpy as np
 
 from clothtool.errors import SceneError
 from clothtool.fabric import Fabric, PhaseType
-from clothtool.solver.config import Material
+from clothtool.settings import BackstopSettings, Material, MotionSettings, Placement
 
 # Rotations taking one up axis to another (columns: where the source axes go).
 _Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
@@ -28,35 +28,6 @@ def up_axis_rotation(source: str, target: str) -> np.ndarray:
     if (source, target) == ("Y", "Z"):
         return _Z_UP_TO_Y_UP.T.copy()
     raise SceneError(f"unknown up axes {source!r} -> {target!r}; use Y or Z")
-
-
-@dataclasses.dataclass(frozen=True)
-class Placement:
-    """Where a fabric goes in the scene: scene = rotation @ (scale * fabric) + translation,
-    after converting the fabric's units and up axis to the scene's."""
-
-    scale: float = 1.0
-    rotation: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3))
-    translation: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
-
-
-@dataclasses.dataclass(frozen=True)
-class MotionSettings:
-    """Motion constraints (max distance): radius = painted * scale + bias, scene units."""
-
-    scale: float = 1.0
-    bias: float = 0.0
-    stiffness: float = 1.0
-
-
-@dataclasses.dataclass(frozen=True)
-class BackstopSettings:
-    """Separation spheres behind each particle: the particle stays outside a sphere of
-    ``radius`` whose surface lies ``distance`` behind its rest position (against the normal).
-    Scene units."""
-
-    radius: float
-    distance: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

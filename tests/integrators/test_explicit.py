@@ -17,12 +17,12 @@ from clothtool.integrators.explicit import ExplicitClothSolver, stability_limit
 from clothtool.integrators.explicit.stability import stability_report
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
+from clothtool.settings import Material, Placement, SolverConfig
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import Material, SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import Pose
 from clothtool.solver.measure import ClothMeter
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 from tests.physics.conftest import fabric_from_arrays
 
 G = np.array([0.0, -9.81, 0.0])

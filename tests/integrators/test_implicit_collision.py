@@ -17,8 +17,8 @@ from clothtool.integrators.implicit.kernels.implicit_collision import (
 )
 from clothtool.integrators.implicit.kernels.implicit_strain import limit_strain
 from clothtool.integrators.implicit.pattern import color_elements, triangle_edges
+from clothtool.settings import load_material
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import load_material
 from tests.integrators.test_implicit_setup import grid_fabric, make_solver, replace, run
 from tests.reference import implicit_collision as ref
 from tests.reference import implicit_strain as ref_strain

@@ -11,10 +11,10 @@ import pytest
 from clothtool.errors import SceneError
 from clothtool.integrators.implicit.solver import ImplicitClothSolver
 from clothtool.profile import StageProfiler
-from clothtool.solver.config import Material, SolverConfig, load_material
+from clothtool.settings import Material, MotionSettings, Placement, SolverConfig, load_material
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import Pose
-from clothtool.solver.model import MotionSettings, Placement, build_model
+from clothtool.solver.model import build_model
 from tests.integrators.test_implicit_setup import fabric_from_mesh, grid_fabric, make_solver, replace, run
 from tests.reference import implicit_energies as ref
 

@@ -15,9 +15,9 @@ from clothtool.integrators.implicit.solver import ImplicitClothSolver
 from clothtool.mesh.shapes import grid
 from clothtool.mesh.topology import vertex_areas
 from clothtool.profile import StageProfiler
-from clothtool.solver.config import Material, SolverConfig
+from clothtool.settings import Material, MotionSettings, Placement, SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.model import MotionSettings, Placement, build_model
+from clothtool.solver.model import build_model
 
 
 def fabric_from_mesh(pos, counts, indices, uv=None, pinned=(), max_distance=None) -> Fabric:

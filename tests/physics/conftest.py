@@ -18,10 +18,10 @@ from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.fabric import Fabric, PhaseType
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
+from clothtool.settings import BackstopSettings, Material, MotionSettings, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
-from clothtool.solver.config import Material, SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.model import BackstopSettings, MotionSettings, Placement, build_model
+from clothtool.solver.model import build_model
 
 
 def fabric_from_arrays(

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.solver.config import SolverConfig, load_material
+from clothtool.settings import SolverConfig, load_material
 
 
 

@@ -32,10 +32,10 @@ from clothtool.integrators.explicit.solver import ExplicitClothSolver
 from clothtool.integrators.explicit.stability import stability_limit
 from clothtool.integrators.implicit.solver import ImplicitClothSolver
 from clothtool.profile import StageProfiler
+from clothtool.settings import Material, PhaseSettings, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 
 SOLVERS = {"pbd": ClothSolver, "implicit": ImplicitClothSolver, "explicit": ExplicitClothSolver}
 RHO, G, FPS = 1.2, 9.81, 24.0

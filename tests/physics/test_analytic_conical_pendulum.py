@@ -38,7 +38,7 @@ import math
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig
+from clothtool.settings import Material, PhaseSettings, SolverConfig
 from clothtool.solver.frame import Pose
 from tests.physics.conftest import fabric_from_arrays, make_solver
 

@@ -24,7 +24,7 @@ import math
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig
+from clothtool.settings import Material, PhaseSettings, SolverConfig
 from clothtool.solver.fabric import constraint_compliance
 from tests.physics.conftest import crossing_times, fabric_from_arrays, make_solver
 

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from scipy.special import ellipk
 
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig
+from clothtool.settings import Material, PhaseSettings, SolverConfig
 from tests.physics.conftest import crossing_times, fabric_from_arrays, make_solver
 
 G = 9.81

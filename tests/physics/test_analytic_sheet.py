@@ -28,7 +28,7 @@ import math
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, SolverConfig
+from clothtool.settings import Material, SolverConfig
 from tests.physics.conftest import cooked_grid, make_solver
 
 G = 9.81

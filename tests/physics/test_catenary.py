@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig
+from clothtool.settings import Material, PhaseSettings, SolverConfig
 
 G = 9.81
 

@@ -18,12 +18,12 @@ from scipy.spatial.transform import Rotation
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
+from clothtool.settings import Material, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import Material, SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import Pose
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 from tests.physics.conftest import fabric_from_arrays
 
 G = 9.81

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, SolverConfig
+from clothtool.settings import Material, SolverConfig
 
 V0 = np.array([2.0, -1.0, 0.5])
 STIFFNESS_FREQUENCY = 100.0

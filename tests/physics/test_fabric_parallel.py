@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.config import SolverConfig
+from clothtool.settings import SolverConfig
 from clothtool.solver.kernels.fabric import solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
 
 

@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from clothtool.solver.config import SolverConfig, load_material
+from clothtool.settings import SolverConfig, load_material
 
 EPS32 = float(np.finfo(np.float32).eps)
 G = np.array([0.0, -9.81, 0.0])

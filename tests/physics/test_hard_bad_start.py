@@ -32,7 +32,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from clothtool.solver.config import SolverConfig, load_material
+from clothtool.settings import SolverConfig, load_material
 from clothtool.solver.fabric import constraint_compliance
 from tests.physics.conftest import HardCaseRun, cooked_grid, make_solver, stretch_strain
 

@@ -41,8 +41,8 @@ import pytest
 
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.shapes import grid
+from clothtool.settings import Material, SolverConfig, load_material
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import Material, SolverConfig, load_material
 from tests.physics.conftest import HardCaseRun, make_collider_solver, make_solver
 
 THICKNESS = 0.002  # m: the cloth's thickness, its collision margin

@@ -29,7 +29,7 @@ from clothtool.io.memory import MemoryCacheWriter
 from clothtool.mesh.clothmesh import ClothMesh
 from clothtool.mesh.shapes import grid
 from clothtool.scene.scene import load_scene
-from clothtool.solver.config import SolverConfig, load_material
+from clothtool.settings import SolverConfig, load_material
 from tests.physics.conftest import HardCaseRun, make_solver
 
 N = 8

@@ -30,7 +30,7 @@ import math
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig
+from clothtool.settings import Material, PhaseSettings, SolverConfig
 from tests.physics.conftest import HardCaseRun, fabric_from_arrays, make_solver
 
 G = 9.81

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.solver.config import SolverConfig, load_material
+from clothtool.settings import SolverConfig, load_material
 from tests.physics.conftest import HardCaseRun, cooked_grid, make_solver, stretch_strain
 
 G = 9.81

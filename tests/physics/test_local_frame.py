@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, SolverConfig
+from clothtool.settings import Material, SolverConfig
 from clothtool.solver.frame import Pose
 
 EPS32 = float(np.finfo(np.float32).eps)

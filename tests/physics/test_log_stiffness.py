@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig
+from clothtool.settings import Material, PhaseSettings, SolverConfig
 
 STIFFNESS_FREQUENCY = 100.0
 

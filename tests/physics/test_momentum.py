@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from clothtool.fabric import PhaseType
-from clothtool.solver.config import Material, SolverConfig, load_material
+from clothtool.settings import Material, SolverConfig, load_material
 
 # (momentum drift relative to sum m |v|, centre-of-mass error in m). float32: every position
 # update rounds by ~1e-7 of |x|, i.e. ~1e-5 m/s of velocity per particle and iteration at

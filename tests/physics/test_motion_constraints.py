@@ -13,8 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.solver.config import Material, SolverConfig
-from clothtool.solver.model import MotionSettings
+from clothtool.settings import Material, MotionSettings, SolverConfig
 
 
 def gust(t: float) -> np.ndarray:

@@ -12,8 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.solver.config import SolverConfig, load_material
-from clothtool.solver.model import BackstopSettings, Placement
+from clothtool.settings import BackstopSettings, Placement, SolverConfig, load_material
 
 PRESETS = ["cotton", "denim", "jersey", "leather", "silk"]
 GRAVITY = (0.0, -9.81, 0.0)

@@ -31,10 +31,10 @@ import pytest
 from scipy.special import ellipk
 
 from clothtool.profile import StageProfiler
+from clothtool.settings import Material, PhaseSettings, Placement, SolverConfig, load_solver
 from clothtool.sim.integrators import integrator_spec
-from clothtool.solver.config import Material, PhaseSettings, SolverConfig, load_solver
 from clothtool.solver.environment import Environment
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 from clothtool.study import StudyOptions, run_study
 from clothtool.study.sweep import Sweep
 from tests.conftest import EXAMPLES

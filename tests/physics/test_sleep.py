@@ -18,13 +18,13 @@ from clothtool.io.memory import MemoryCacheWriter
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
 from clothtool.scene.scene import load_scene
+from clothtool.settings import Material, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
 from clothtool.solver.colliders import ColliderArrays
-from clothtool.solver.config import Material, SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import Pose
 from clothtool.solver.iteration import FramePlan
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 from clothtool.solver.sleep import driven_by
 
 FPS = 60.0

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from clothtool.solver.config import SolverConfig, load_material
+from clothtool.settings import SolverConfig, load_material
 
 HANGING = ("XY", (-1.0, -0.01, -1.0, 1.0, 1.0, 1.0))  # hangs in its rest pose, top row pinned
 # flat, pinned along z = 0: falls and swings (silk, braked by its air drag to ~0.1 m/s, takes

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.config import Material
+from clothtool.settings import Material
 
 
 def test_wind_stage_orders_every_triangle_once_by_colour(grid_fabric, solver_for):

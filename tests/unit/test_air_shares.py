@@ -7,9 +7,9 @@ import numpy as np
 
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.shapes import grid
+from clothtool.settings import Material, Placement
 from clothtool.solver.air import corner_shares
-from clothtool.solver.config import Material
-from clothtool.solver.model import Placement, build_model
+from clothtool.solver.model import build_model
 
 
 def model_of(columns, rows, quads, units=1.0):

@@ -17,7 +17,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[2] / "clothtool"
 
 # Neutral modules: anything may import them; they import only each other.
-NEUTRAL = {"errors", "inputs", "resources", "presets", "_jit", "_kernel_cache", "_simd", "_simd_python", "fabric", "mesh", "__init__"}
+NEUTRAL = {"errors", "inputs", "resources", "presets", "settings", "_jit", "_kernel_cache", "_simd", "_simd_python", "fabric", "mesh", "__init__"}
 # What each layer may import besides the neutral modules.
 ALLOWED = {
     "cook": set(),
@@ -37,13 +37,9 @@ KNOWN = {
     "clothtool.scene.scene -> clothtool.cook.cooker",
     "clothtool.scene.scene -> clothtool.io.fabric_file",
     "clothtool.scene.scene -> clothtool.io.meshin",
-    "clothtool.scene.scene -> clothtool.solver.config",
-    "clothtool.scene.scene -> clothtool.solver.model",
     "clothtool.scene.usdbodies -> clothtool.io.usd_env",
     "clothtool.scene.usdstage -> clothtool.cook.cooker",
     "clothtool.scene.usdstage -> clothtool.io.meshin",
-    "clothtool.scene.usdstage -> clothtool.solver.config",
-    "clothtool.scene.usdstage -> clothtool.solver.model",
     "clothtool.solver.wind -> clothtool.cook.triplets",
 }
 

@@ -69,8 +69,8 @@ from clothtool.integrators.implicit.kernels.implicit_strain import limit_strain
 from clothtool.integrators.implicit.pattern import build_pattern, color_elements, triangle_edges
 from clothtool.integrators.implicit.rest import build_rest_shape, triangle_corner_uvs
 from clothtool.profile import StageProfiler
+from clothtool.settings import SolverConfig
 from clothtool.solver.air import corner_shares
-from clothtool.solver.config import SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.model import ClothModel

@@ -1,4 +1,6 @@
-"""Solver and material settings (frozen dataclasses filled from presets and overrides).
+"""Settings shared by the scene, the solvers and the bake: solver and material settings
+(frozen dataclasses filled from presets and overrides) and where a cloth goes (placement,
+motion constraints, backstops). A neutral module: it imports no scene, solver or io code.
 
 Stiffness-like values in [0,1] follow NvCloth: a stiffness k removes the fraction k of a
 constraint's error per step of the *stiffness frequency*; the solver converts it to its own
@@ -11,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 import math
 from typing import Literal
+
+import numpy as np
 
 from clothtool.errors import PresetError
 from clothtool.presets import apply_mapping, load_preset
@@ -202,3 +206,32 @@ def load_material(name_or_table: str | dict, where: str) -> Material:
 def load_solver(name_or_table: str | dict, where: str) -> SolverConfig:
     """Solver settings from a preset name, or a table with an optional ``preset`` key plus overrides."""
     return _load_settings("solver", SolverConfig, name_or_table, where)
+
+
+@dataclasses.dataclass(frozen=True)
+class Placement:
+    """Where a fabric goes in the scene: scene = rotation @ (scale * fabric) + translation,
+    after converting the fabric's units and up axis to the scene's."""
+
+    scale: float = 1.0
+    rotation: np.ndarray = dataclasses.field(default_factory=lambda: np.eye(3))
+    translation: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(3))
+
+
+@dataclasses.dataclass(frozen=True)
+class MotionSettings:
+    """Motion constraints (max distance): radius = painted * scale + bias, scene units."""
+
+    scale: float = 1.0
+    bias: float = 0.0
+    stiffness: float = 1.0
+
+
+@dataclasses.dataclass(frozen=True)
+class BackstopSettings:
+    """Separation spheres behind each particle: the particle stays outside a sphere of
+    ``radius`` whose surface lies ``distance`` behind its rest position (against the normal).
+    Scene units."""
+
+    radius: float
+    distance: float = 0.0
