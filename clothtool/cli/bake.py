@@ -93,16 +93,13 @@ def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_js
     from clothtool.errors import UnstableError
     from clothtool.preflight import load_for_bake
     from clothtool.report import format_profile_table, format_summary, write_report
-    from clothtool.scene.usdstage import load_any_scene
-    from clothtool.workload import check_workload
 
     overrides = list(overrides) + (["solver.force=true"] if force else [])
     if dry_run:
         from clothtool.bake import format_plan, plan
 
-        loaded = load_any_scene(scene, list(overrides), frames, strict, cloth, collider)
-        check_workload(loaded, None, loaded.solver.force)
-        data = plan(loaded)
+        # the checks of a bake into "null": no output to refuse, the same workload limits
+        data = plan(load_for_bake(scene, "null", overrides, frames, strict, cloth=cloth, collider=collider))
         emit_json(data) if as_json else click.echo(format_plan(data))
         return
     if output is None:

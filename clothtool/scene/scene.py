@@ -368,8 +368,10 @@ def _refuse_other_file_kinds(path: Path) -> None:
     """A fabric, cache or mesh given where a scene belongs gets a hint, not a TOML error."""
     with path.open("rb") as handle:
         head = handle.read(8)
+    from clothtool.io.meshin import SUPPORTED_SUFFIXES
+
     kind = next((what for magic, what in _MAGIC.items() if head.startswith(magic)), None)
-    if kind is None and path.suffix.lower() in (".obj", ".ply", ".stl", ".off", ".gltf", ".glb", ".usd", ".usda", ".usdc", ".usdz"):
+    if kind is None and path.suffix.lower() in SUPPORTED_SUFFIXES:
         kind = f"a mesh or USD file ({path.suffix})"
     if kind is not None:
         raise SceneError(
