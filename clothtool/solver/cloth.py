@@ -160,7 +160,7 @@ class ClothSolver:
             terms = self.history.advance(
                 self._targets[index], scale, self.gravity, h, self.inertia, self.config.stiffness_frequency, self.state.cur.dtype
             )
-        return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, scale, terms)
+        return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, scale, terms, ratio)
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) every kernel this cloth's stages use."""

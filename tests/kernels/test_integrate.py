@@ -1,4 +1,4 @@
-"""integrate_linear / integrate_affine against tests/reference/integrate.py."""
+"""integrate_linear / integrate_affine / mean_displacement against tests/reference/integrate.py."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clothtool.solver.kernels.integrate import _row, integrate_affine, integrate_linear
+from clothtool.solver.kernels.integrate import _row, integrate_affine, integrate_linear, mean_displacement
 from tests.kernels._data import F32, U, assert_close, f32, particles
 from tests.reference import integrate as ref
 
@@ -119,3 +119,19 @@ def test_integrate_linear_in_float64_state():
     ref_cur, ref_prev = ref.integrate_linear(0.99, bias, cur0, prev0)
     assert cur.dtype == np.float64
     check(cur0, prev0, cur, prev, ref_cur, ref_prev, 1e-15)
+
+
+@settings(max_examples=25)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 70), pinned=st.sampled_from([0.0, 0.3, 1.0]))
+def test_mean_displacement_matches_reference(seed, n, pinned):
+    """Summed in float64: each term is the exact float32 difference (cur and prev are within a
+    factor 2 of each other or their difference is exact) times 1 / w, so only float64
+    rounding separates kernel and reference."""
+    rng = np.random.default_rng(seed)
+    cur0, prev0 = particles(rng, n, pinned=pinned)
+    disturb_cur_w(rng, cur0)  # cur.w plays no part: the masses are prev.w's
+    out = np.full(3, np.nan)
+    mean_displacement(cur0, prev0, out)
+    np.testing.assert_allclose(out, ref.mean_displacement(cur0, prev0), rtol=1e-12, atol=1e-15)
+    if not (prev0[:, 3] > 0).any():
+        np.testing.assert_array_equal(out, np.zeros(3))

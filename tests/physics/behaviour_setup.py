@@ -152,6 +152,15 @@ def start_at(solver, points: np.ndarray) -> None:
     solver.state.prev[:, :3] = points
 
 
+def masses(solver) -> np.ndarray:
+    """float64 (n,) the masses the integrator moves the particles with: the implicit one keeps
+    its own float64 masses, the others the inverse of the state's (float32) inverse masses."""
+    if hasattr(solver, "mass"):
+        return np.asarray(solver.mass, np.float64)
+    w = solver.state.prev[:, 3].astype(np.float64)
+    return np.where(w > 0, 1.0 / np.where(w > 0, w, 1.0), 0.0)
+
+
 def add_velocity(solver, dv: np.ndarray, h: float) -> None:
     """Add ``dv`` (n,3) to every particle's velocity between frames."""
     if hasattr(solver, "velocity"):

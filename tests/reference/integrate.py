@@ -50,3 +50,13 @@ def integrate_affine(m_cur, m_prev, bias, cur, prev):
     m_prev = np.asarray(m_prev, np.float64)
     delta = x @ m_cur.T + x_prev @ m_prev.T + np.asarray(bias, np.float64)
     return _finish(cur, prev, movable, x + delta)
+
+
+def mean_displacement(cur, prev):
+    """(3,) sum m (x - x_prev) / sum m over particles with prev.w > 0, m = 1 / prev.w (zeros
+    when there are none), in float64."""
+    cur, prev, movable = _split(cur, prev)
+    if not movable.any():
+        return np.zeros(3)
+    mass = 1.0 / prev[movable, 3]
+    return mass @ (cur[movable, :3] - prev[movable, :3]) / mass.sum()

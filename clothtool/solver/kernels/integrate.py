@@ -38,6 +38,33 @@ def integrate_linear(scale, bias, cur, prev):
         store4(flat_prev, row, keep_w(c, p))
 
 
+@kernel
+def mean_displacement(cur, prev, out):
+    """out = sum m (x - x_prev) / sum m over the movable particles (prev.w > 0, m = 1 / prev.w):
+    the cloth's mean motion over the last iteration (zeros when none is movable). Summed in
+    float64 whatever the state's precision."""
+    sx = 0.0
+    sy = 0.0
+    sz = 0.0
+    total = 0.0
+    for i in range(cur.shape[0]):
+        w = prev[i, 3]
+        if w > 0.0:
+            m = 1.0 / np.float64(w)
+            sx += m * (np.float64(cur[i, 0]) - np.float64(prev[i, 0]))
+            sy += m * (np.float64(cur[i, 1]) - np.float64(prev[i, 1]))
+            sz += m * (np.float64(cur[i, 2]) - np.float64(prev[i, 2]))
+            total += m
+    if total > 0.0:
+        out[0] = sx / total
+        out[1] = sy / total
+        out[2] = sz / total
+    else:
+        out[0] = 0.0
+        out[1] = 0.0
+        out[2] = 0.0
+
+
 @kernel(inline="always")
 def _row(m, r, x, y, z):
     return m[r, 0] * x + m[r, 1] * y + m[r, 2] * z
