@@ -223,7 +223,9 @@ def test_without_the_stage_the_cloth_falls_through():
     model = build_model("cloth", fabric, Material(), Placement(), 1.0, "Y")
     solver = ClothSolver(model, SolverConfig(), Environment(GRAVITY), StageProfiler())
     assert "collide" not in solver.stage_names
-    run(solver, 15)
+    # 7 frames: a free cloth falls freely (its damping spares its mean motion), 0.27 m by then,
+    # so its middle is inside the sphere (after 15 frames it would have fallen right through)
+    run(solver, 7)
     assert (np.linalg.norm(solver.world_points(), axis=1) < 0.25).sum() > 50  # inside the sphere
 
 
