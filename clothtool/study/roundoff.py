@@ -2,14 +2,17 @@
 
 A float32 run is baked a second time in float64 (its *twin*; a swept float64 run of the same
 setting is reused when there is one) and the difference is its round-off, measured. On the
-swinging sheet that grows about as N^2.3 with the iteration count N: 4e-5 of the cloth's size
-at 384 Hz, 9e-4 at 1536 Hz, 2e-2 at 6144 Hz, so float32 errors stop falling with frequency.
+swinging sheet (benchmarks/figures/swing-convergence, XPBD, one second) it is 8e-4 of the
+cloth's size at 768 Hz and grows with the iteration count to 5e-3 at 3072 Hz and 2e-2 at
+6144 Hz, where it is the whole error; at 96-384 Hz (4e-3 .. 9e-3) the coarse, much stretched
+swing amplifies the rounding differences instead.
 
 A float64 run has no higher precision to compare with: its round-off is estimated as
-eps * max|x| * N^2 / size, the bound a position error of one unit of round-off per iteration,
-fed back into the velocity and summed over N iterations, could reach. With float32's eps this
-bound is 100-250x above the measured round-off on the swinging sheet at 384-6144 Hz, so it
-marks only errors that round-off could really explain.
+eps * max|x| * N^2 / size, one unit of round-off per iteration fed back through the velocity
+and summed over N iterations. It is an order of magnitude, not a bound: with float32's eps it
+is 90-300x above the measured round-off of the swinging sheet at 768-6144 Hz, 5x at 384 Hz,
+but 8x below it at 96 Hz. With float64's eps it stays below 1e-8 of the size up to 10^4
+iterations a second for a second, far below any error a study resolves.
 
 A run's error is *at the floor* when it is no more than FLOOR_MARGIN times the floor (its own
 round-off plus the reference's): then at least half of the error may be round-off, and raising
