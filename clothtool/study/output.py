@@ -12,6 +12,7 @@ import numpy as np
 
 from clothtool.errors import ClothtoolError
 from clothtool.io.atomic import atomic_output
+from clothtool.study import roundoff
 
 # metric -> (row key plotted, axis label)
 METRIC_COLUMNS = {
@@ -21,11 +22,13 @@ METRIC_COLUMNS = {
     "energy": ("energy_drift_J", "|energy drift| (J)"),
 }
 COLUMNS = (
-    ("label", "setting"), ("family", "family"), ("wall_s_per_simulated_s", "s/sim s"),
+    ("label", "setting"), ("family", "family"), ("precision", "precision"), ("wall_s_per_simulated_s", "s/sim s"),
     ("constraint_projections_per_simulated_s", "proj/sim s"), ("strain_max", "strain max"),
     ("strain_mean", "strain mean"), ("strain_p99", "strain p99"), ("position_rms", "pos rms"),
     ("position_max", "pos max"), ("penetration_max", "penetration"), ("energy_drift_J", "energy J"),
+    ("floor", "floor"),
 )
+FLOOR_MARK = "#"  # after the error of a row at its round-off floor
 
 
 def pareto_front(rows: list[dict], key: str) -> list[int]:
@@ -53,12 +56,17 @@ def format_table(result) -> str:
     front = set(pareto_front(result.rows, key))
     widths = [max(len(title), 11) for _, title in COLUMNS]
     lines = [
-        f"study {result.scene}: metric {result.metric}, median of the runs per point; * = Pareto front",
+        f"study {result.scene}: metric {result.metric}, median of the runs per point; * = Pareto front; "
+        f"{FLOOR_MARK} = error at the round-off floor (at most {roundoff.FLOOR_MARGIN:g}x the run's and the "
+        "reference's round-off: raising the frequency will not lower it)",
         "  ".join(title.rjust(w) for (_, title), w in zip(COLUMNS, widths)),
     ]
+    column = [k for k, _ in COLUMNS].index(key)
     for i, row in enumerate(result.rows):
-        cells = [_cell(row[k]) for k, _ in COLUMNS]
+        cells = [_cell(row.get(k, "")) for k, _ in COLUMNS]
         cells[0] = ("*" if i in front else " ") + cells[0]
+        if row.get("at_floor"):
+            cells[column] += FLOOR_MARK
         lines.append("  ".join(c.rjust(w) for c, w in zip(cells, widths)))
     failures = [r for r in result.rows if r["failed"]]
     for row in failures:
@@ -66,7 +74,16 @@ def format_table(result) -> str:
     ref = result.reference
     changes = ", ".join(f"{h['change_from_half']:.3g}" for h in ref["history"]) or "n/a"
     status = "converged" if ref["converged"] else "NOT converged"
-    lines.append(f"reference: {ref['frequency']:g} Hz, float64, {status} (changes on doubling: {changes})")
+    lines.append(f"reference: {ref['frequency']:g} Hz, {ref.get('precision', 'float64')}, {status} "
+                 f"(changes on doubling: {changes})")
+    if ref.get("roundoff_source"):
+        lines.append(f"reference round-off: {ref['roundoff']:.3g} ({ref['roundoff_source']})")
+    sources = sorted({r["roundoff_source"] for r in result.rows if r.get("roundoff_source")})
+    if sources:
+        lines.append(f"floor = round-off of the {result.metric} error: " + "; ".join(sources)
+                     + (", plus the reference's" if result.metric == "position" else ""))
+    if result.target is not None:
+        lines += format_target(result.target)
     resolved = _reference_resolution(result)
     if resolved is not None:
         lines.append(
@@ -76,6 +93,22 @@ def format_table(result) -> str:
     m = result.machine
     lines.append(f"machine: {m['cpu']}, {m['cores']} cores, {m['system']}, python {m['python']}, numba {m['numba']}")
     return "\n".join(lines)
+
+
+def format_target(target: dict) -> list[str]:
+    """One line per family: the cheapest run reaching the target error and the time to it."""
+    lines = [f"time to reach {target['metric']} error <= {target['error']:g} (wall s per simulated s):"]
+    for answer in target["families"]:
+        if not answer["reached"]:
+            lines.append(f"  {answer['family']}: not reached (best {answer['best_error']:.4g})")
+            continue
+        how = ("at most, the cheapest swept run already reaches it" if answer["bound"] == "at most"
+               else "interpolated in log-log between swept runs")
+        lines.append(
+            f"  {answer['family']}: {answer['wall_s_per_simulated_s']:.4g} ({how}); cheapest run {answer['run']} "
+            f"at {answer['run_wall_s_per_simulated_s']:.4g}"
+        )
+    return lines
 
 
 def _reference_resolution(result) -> float | None:
@@ -92,13 +125,14 @@ def _reference_resolution(result) -> float | None:
 def _csv(result) -> str:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    keys = [k for k, _ in COLUMNS] + ["failed"]
+    keys = [k for k, _ in COLUMNS] + ["at_floor", "roundoff_source", "failed"]
     setting_keys = []  # every swept key of every row (appended studies may sweep other keys)
     for row in result.rows:
         setting_keys += [k for k in row["setting"] if k not in setting_keys]
     writer.writerow(setting_keys + keys)
     for row in result.rows:
-        writer.writerow([row["setting"].get(k, "") for k in setting_keys] + [row[k] if row[k] is not None else "" for k in keys])
+        writer.writerow([row["setting"].get(k, "") for k in setting_keys]
+                        + [row.get(k) if row.get(k) is not None else "" for k in keys])
     return buffer.getvalue()
 
 
@@ -120,9 +154,24 @@ def _plot(result, suffix: str, path: Path) -> None:
             continue
         xs = [r["wall_s_per_simulated_s"] for r in rows]
         ys = [abs(r[key]) for r in rows]
-        ax.plot(xs, ys, marker="o", label=family)
+        line, = ax.plot(xs, ys, marker="o", label=family)
         for x, y, r in zip(xs, ys, rows):
             ax.annotate(r["label"], (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7)
+        # where round-off sets the floor: the floor itself (dotted) and the rows at it (ringed)
+        floors = [(x, r["floor"]) for x, r in zip(xs, rows) if math.isfinite(r.get("floor", math.nan)) and r["floor"] > 0]
+        if floors and any(r.get("roundoff_source") == roundoff.MEASURED for r in rows):
+            ax.plot(*zip(*floors), ls=":", color=line.get_color(), lw=1, label=f"{family}: round-off floor")
+        at = [(x, y) for x, y, r in zip(xs, ys, rows) if r.get("at_floor")]
+        if at:
+            ax.plot(*zip(*at), ls="none", marker="o", ms=12, mfc="none", mec="red", mew=1.2)
+    if any(r.get("at_floor") for r in result.rows):
+        ax.plot([], [], ls="none", marker="o", ms=12, mfc="none", mec="red", label="at the round-off floor")
+    if result.target is not None:
+        ax.axhline(result.target["error"], color="grey", lw=0.8, ls="-.", label=f"target {result.target['error']:g}")
+        reached = [a for a in result.target["families"] if a["reached"]]
+        if reached:
+            ax.plot([a["wall_s_per_simulated_s"] for a in reached], [result.target["error"]] * len(reached),
+                    ls="none", marker="*", ms=11, color="black", label="time to target")
     front = [result.rows[i] for i in pareto_front(result.rows, key) if result.rows[i][key] != 0]
     if front:
         ax.plot([r["wall_s_per_simulated_s"] for r in front], [abs(r[key]) for r in front], "k--", lw=1,
@@ -183,7 +232,7 @@ def write_study(result, out_dir: str | Path) -> list[Path]:
         "table.csv": _csv(result),
         "table.json": json.dumps(
             {"scene": result.scene, "metric": result.metric, "sweeps": result.sweeps, "rows": result.rows,
-             "reference": result.reference, "machine": result.machine},
+             "reference": result.reference, "machine": result.machine, "target": result.target},
             indent=2, sort_keys=True, default=float,
         ) + "\n",
     }

@@ -67,6 +67,27 @@ def test_study_writes_table_plot_and_reference(scene, out_dir):
     assert (out / "plot.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_precision_floor_and_target_error_reach_table_csv_and_json(scene, out_dir):
+    out = out_dir / "study"
+    result = run(
+        "study", scene, "--sweep", "solver.frequency=48,96", "--sweep", "solver.precision=float32,float64",
+        "--repeats", "1", "--reference-frequency", "768", "--target-error", "1", "-o", out, "--json",
+    )
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert [r["precision"] for r in data["rows"]] == ["float32", "float32", "float64", "float64"]
+    assert data["reference"]["precision"] == "float64"
+    # an error of 1 (the cloth's size) is reached by the cheapest run of each family
+    for answer in data["target"]["families"]:
+        family = [r for r in data["rows"] if r["family"] == answer["family"]]
+        cheapest = min(family, key=lambda r: r["wall_s_per_simulated_s"])
+        assert (answer["run"], answer["bound"]) == (cheapest["label"], "at most")
+    rows = list(csv.DictReader((out / "table.csv").open()))
+    assert [r["precision"] for r in rows] == ["float32", "float32", "float64", "float64"]
+    assert all(float(r["floor"]) > 0 and r["at_floor"] in ("True", "False") for r in rows)
+    assert "time to reach position error <= 1" in (out / "table.txt").read_text()
+
+
 def test_unstable_settings_are_listed_not_dropped_and_append_reuses_the_reference(scene, out_dir):
     out = out_dir / "study"
     first = run("study", scene, "--sweep", "solver.frequency=96", "--repeats", "1", "--reference-frequency", "384", "-o", out)
@@ -100,6 +121,7 @@ def test_append_refuses_another_reference(scene, out_dir):
         (["--sweep", "solver.frequency"], "expected KEY=V1,V2"),
         (["--sweep", "solver.frequncy=60"], "unknown key 'frequncy'"),
         (["--sweep", "solver.frequency=60", "--append"], "--append needs an earlier study"),
+        (["--sweep", "solver.frequency=60", "--target-error", "0"], "--target-error 0: give a positive error"),
     ],
 )
 def test_bad_study_input(scene, out_dir, args, message):
