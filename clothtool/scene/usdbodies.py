@@ -63,6 +63,18 @@ def open_stage(path: Path):
     return stage
 
 
+def stage_units(stage, source: str) -> tuple[float, str]:
+    """(metersPerUnit, upAxis) of the stage, which its bodies' coordinates are written in."""
+    from pxr import UsdGeom
+
+    mpu, up_axis = float(UsdGeom.GetStageMetersPerUnit(stage)), str(UsdGeom.GetStageUpAxis(stage))
+    if not (np.isfinite(mpu) and mpu > 0):
+        raise SceneError(f"{source}: stage metadata metersPerUnit = {mpu:g}; give a positive size (0.01 for centimetres)")
+    if up_axis not in ("Y", "Z"):
+        raise SceneError(f"{source}: stage upAxis is {up_axis!r}; clothtool reads Y-up or Z-up stages, re-export with one")
+    return mpu, up_axis
+
+
 def shot_clock(stage, fps: float, start: int, end: int) -> ShotClock:
     """The stage's time codes that cover scene frames ``start``..``end`` at ``fps`` (the stage
     may run at another rate: its time codes are converted through seconds)."""
