@@ -182,11 +182,14 @@ def _analytic(prim, type_name: str, source: str) -> dict:
     return dict(kind="plane", centers=none3, radii=none1, planes=np.array([[*normal, 0.0]]))
 
 
-def _topology(mesh, source: str):
-    """Face counts and indices (refusing time samples that change them) and triangles."""
-    from pxr import Usd
+COLLIDER_KEEPS_TOPOLOGY = "a collider keeps its topology: export a fixed-topology mesh (or a point cache of the same mesh)"
 
-    from clothtool.mesh import topology
+
+def fixed_topology(mesh, source: str, keeps: str = COLLIDER_KEEPS_TOPOLOGY, points: bool = False) -> dict[str, np.ndarray]:
+    """{'faceVertexCounts', 'faceVertexIndices'}: the mesh's faces, refusing time samples that
+    change them (and with ``points``, the number of points; colliders check that at every frame
+    they sample); ``keeps`` says why and how to fix it."""
+    from pxr import Usd
 
     path = mesh.GetPath()
     values = {}
@@ -195,11 +198,25 @@ def _topology(mesh, source: str):
         first = np.asarray(attr.Get(Usd.TimeCode(samples[0]) if samples else Usd.TimeCode.Default()) or [], np.int64)
         for time in samples[1:]:
             if not np.array_equal(np.asarray(attr.Get(Usd.TimeCode(time)), np.int64), first):
-                raise SceneError(
-                    f"{source}: prim {path} changes '{attr.GetName()}' at time code {time:g}; a collider keeps "
-                    "its topology: export a fixed-topology mesh (or a point cache of the same mesh)"
-                )
+                raise SceneError(f"{source}: prim {path} changes '{attr.GetName()}' at time code {time:g}; {keeps}")
         values[attr.GetName()] = first
+    attr = mesh.GetPointsAttr()
+    sizes = {time: len(attr.Get(Usd.TimeCode(time)) or []) for time in (attr.GetTimeSamples() if points else [])}
+    if len(set(sizes.values())) > 1:
+        time = next(t for t, n in sizes.items() if n != next(iter(sizes.values())))
+        raise SceneError(
+            f"{source}: prim {path} has {sizes[time]} points at time code {time:g} but "
+            f"{next(iter(sizes.values()))} at its first sample; {keeps}"
+        )
+    return values
+
+
+def _topology(mesh, source: str):
+    """Face counts and indices (refusing time samples that change them) and triangles."""
+    from clothtool.mesh import topology
+
+    path = mesh.GetPath()
+    values = fixed_topology(mesh, source)
     counts, indices = values["faceVertexCounts"].astype(np.int32), values["faceVertexIndices"].astype(np.int32)
     if int(counts.sum()) != indices.size or counts.size == 0:
         raise SceneError(f"{source}: prim {path} faceVertexCounts and faceVertexIndices do not match; re-export the mesh")
@@ -333,6 +350,12 @@ def body_collider(prim, name: str, clock: ShotClock, skinning, source: str) -> C
     none3, none1, no_planes = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))
     if skinning is not None:
         from clothtool.io.usd_env import quiet_stderr
+
+        if type_name != "Mesh":
+            raise SceneError(
+                f"{source}: prim {prim.GetPath()} is a {type_name or 'typeless prim'} skinned by UsdSkel, and clothtool "
+                "skins Mesh prims only; export it as a skinned Mesh or a point cache, or parent it under an animated xform"
+            )
 
         with quiet_stderr():  # pxr warns on stderr; what matters is raised in one line
             fields = _skinned(prim, skinning, clock, source)
