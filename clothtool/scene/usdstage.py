@@ -290,7 +290,15 @@ def load_usd_scene(
     """The Scene of a USD stage (see module docstring); ``cloth`` prim paths and ``collider``
     patterns replace the marked prims."""
     from clothtool.scene.colliders import SceneColliders
-    from clothtool.scene.usdbodies import body_collider, open_stage, shot_clock, skinning_targets, with_preroll
+    from clothtool.scene.usdbodies import (
+        body_collider,
+        open_stage,
+        shot_clock,
+        skinning_targets,
+        stage_units,
+        unit_root,
+        with_preroll,
+    )
 
     path = Path(path)
     if not path.is_file():
@@ -313,9 +321,11 @@ def load_usd_scene(
     skinned = skinning_targets(stage, str(path))
     collider_paths = [str(p.GetPath()) for p in collider_prims]
     collider_names = _names(collider_paths)
+    units = stage_units(stage, str(path))
     bodies = []
     for prim in collider_prims:
-        body = body_collider(prim, collider_names[str(prim.GetPath())], clock, skinned.get(str(prim.GetPath())), str(path))
+        body = body_collider(prim, collider_names[str(prim.GetPath())], clock, skinned.get(str(prim.GetPath())), str(path),
+                             unit_root(prim, units, str(path)))
         bodies.append(with_preroll(body, clock, fps, start, preroll))
     mesh_colliders = [p for p, body in zip(collider_paths, bodies) if body.kind == "mesh"]
     cloth_paths = [str(p.GetPath()) for p in cloth_prims]
