@@ -9,8 +9,10 @@
 * ``skirt/walk.toml``: the skirt on a walking character proxy: a pelvis sphere and two
   tapered-capsule legs swinging on keyframed tracks, the skirt simulated in the hips' frame.
 * ``shot/shot.usda``: a DCC-style shot: a low-poly humanoid (torso, hips, legs) skinned with
-  UsdSkel and walking, and a skirt modelled on it in the bind pose, marked
-  ``clothtool:role = "cloth"`` with a painted waistband that attaches to the body.
+  UsdSkel and walking, and a skirt fitted to it in the bind pose (its waistband on the hips,
+  clear of the hips and thighs below), marked ``clothtool:role = "cloth"`` with a painted
+  waistband that attaches to the body; the solver and material settings that keep its
+  strain to a few percent are in the stage (``SHOT_FREQUENCY``, ``SHOT_MATERIAL``).
 * ``sheet/sheet.obj`` and ``sheet/swing.toml``: a 1 m square sheet (24 x 24 quads) pinned
   along its top edge, released 60 degrees from hanging: the integrator studies' test scene.
 
@@ -226,12 +228,44 @@ def write_sheet_obj(path: Path, quads: int = 24) -> None:
 
 
 SHOT_FRAMES = (1, 48)
+SHOT_FREQUENCY = 2400.0  # solver iterations per second
+# cotton's shear stiffness raised (0.6 lets the skirt shear a sixth as the walk starts), and no
+# velocity damping: the cloth is simulated in the world, where NvCloth-style damping drags a
+# garment that walks at 1 m/s like a wind from the front
+SHOT_MATERIAL = {"shearing:stiffness": 0.9, "damping": 0.0}
 JOINTS = ["hips", "hips/spine", "hips/l_thigh", "hips/l_thigh/l_shin", "hips/r_thigh", "hips/r_thigh/r_shin"]
 JOINT_WORLD = {  # bind pose: joint positions in the world (metres, Y up), no rotation
     "hips": (0.0, 0.92, 0.0), "hips/spine": (0.0, 1.12, 0.0),
     "hips/l_thigh": (0.09, 0.88, 0.0), "hips/l_thigh/l_shin": (0.09, 0.48, 0.0),
     "hips/r_thigh": (-0.09, 0.88, 0.0), "hips/r_thigh/r_shin": (-0.09, 0.48, 0.0),
 }
+
+
+# the body's tubes: ring heights (downwards) and half-widths along X and Z, metres
+TORSO_Y = [1.45, 1.32, 1.18, 1.05, 0.95, 0.86, 0.78]
+TORSO_RX = [0.15, 0.16, 0.14, 0.13, 0.15, 0.165, 0.12]
+TORSO_RZ = [0.09, 0.10, 0.09, 0.085, 0.10, 0.105, 0.08]
+LEG_X = 0.09  # each leg's centre, either side of the middle
+LEG_Y = [0.90, 0.78, 0.62, 0.50, 0.46, 0.30, 0.14, 0.06]
+LEG_RX = [0.075, 0.078, 0.064, 0.052, 0.05, 0.047, 0.038, 0.04]
+LEG_RZ = [0.075, 0.078, 0.064, 0.052, 0.05, 0.047, 0.038, 0.05]
+# the skirt's waistband: the torso's ring at y 0.95, which the hips joint alone moves (the
+# spine's weight starts at 0.98), so the pinned ring rides a rigid part of the body and its
+# edges keep their length; (y, half-width along X, half-depth along Z), metres
+WAIST = (0.95, 0.15, 0.10)
+# the hem: a little wider front to back than side to side, where the stride needs room
+HEM = (0.45, 0.28, 0.38)
+CLEARANCE = 0.02  # metres between the skirt's rest shape and the body below the waistband
+
+
+def body_extent(y: float) -> tuple[float, float]:
+    """The bind-pose body's half-width (X) and half-depth (Z) at height ``y``: the torso's
+    rings and the legs' (linearly between rings), whichever reaches further."""
+    rx = np.interp(-y, [-h for h in TORSO_Y], TORSO_RX, left=0.0, right=0.0)
+    rz = np.interp(-y, [-h for h in TORSO_Y], TORSO_RZ, left=0.0, right=0.0)
+    leg_rx = np.interp(-y, [-h for h in LEG_Y], LEG_RX, left=0.0, right=0.0)
+    leg_rz = np.interp(-y, [-h for h in LEG_Y], LEG_RZ, left=0.0, right=0.0)
+    return max(rx, LEG_X + leg_rx if leg_rx else 0.0), max(rz, leg_rz)
 
 
 def _tube(center_x: float, heights, radii_x, radii_z, segments: int = 12):
@@ -254,20 +288,46 @@ def _tube(center_x: float, heights, radii_x, radii_z, segments: int = 12):
     return np.asarray(points), faces
 
 
+def fitted_skirt(columns: int = 36, rings: int = 14, ease: float = 0.012):
+    """The shot's skirt, fitted to the humanoid: its waistband is the body's elliptical
+    cross-section at ``WAIST`` grown by ``ease`` metres, so the pinned ring sits on the body (a
+    round waistband hangs centimetres off the front and back, and the attachment's long normal
+    offsets then stretch it as the body bends); below, the rings widen linearly towards the
+    elliptical ``HEM``, and never come closer than ``CLEARANCE`` to the hips and thighs.
+    Returns what ``skirt_grid`` returns."""
+    y_waist, rx_waist, rz_waist = WAIST
+    hem_y, hem_rx, hem_rz = HEM
+    pos, uv = [], []
+    for j in range(rings):
+        t = j / (rings - 1)
+        y = y_waist + t * (hem_y - y_waist)
+        body_rx, body_rz = body_extent(y)
+        rx = rx_waist + ease + t * (hem_rx - rx_waist - ease)
+        rz = rz_waist + ease + t * (hem_rz - rz_waist - ease)
+        if j > 0:  # below the waistband the skirt clears the hips and thighs
+            rx, rz = max(rx, body_rx + CLEARANCE), max(rz, body_rz + CLEARANCE)
+        for i in range(columns + 1):  # column `columns` duplicates column 0: the UV seam
+            angle = 2 * np.pi * i / columns
+            pos.append((rx * np.sin(angle), y, rz * np.cos(angle)))
+            uv.append((i / columns, 1 - t))
+    width = columns + 1
+    faces = [(j * width + i, (j + 1) * width + i, (j + 1) * width + i + 1, j * width + i + 1)
+             for j in range(rings - 1) for i in range(columns)]
+    pin = np.array([1.0 if j == 0 else 0.0 for j in range(rings) for _ in range(width)])
+    maxdist = np.array([j / (rings - 1) for j in range(rings) for _ in range(width)])
+    return np.asarray(pos), np.asarray(uv), np.asarray(faces), pin, maxdist
+
+
 def humanoid_body():
     """A low-poly body (torso with hips, two legs as closed tubes) and its skin weights:
     (points, faces, joint indices (v,2), joint weights (v,2))."""
-    torso_y = [1.45, 1.32, 1.18, 1.05, 0.95, 0.86, 0.78]
-    torso, torso_faces = _tube(0.0, torso_y, [0.15, 0.16, 0.14, 0.13, 0.15, 0.165, 0.12],
-                               [0.09, 0.10, 0.09, 0.085, 0.10, 0.105, 0.08])
+    torso, torso_faces = _tube(0.0, TORSO_Y, TORSO_RX, TORSO_RZ)
     parts, faces, influences = [torso], list(torso_faces), []
     for y in torso[:, 1]:  # hips below the waist, spine above, blended over 0.98..1.12
         w = float(np.clip((y - 0.98) / 0.14, 0.0, 1.0))
         influences.append(((0, 1), (1.0 - w, w)))
-    for side, (x, thigh, shin) in enumerate(((0.09, 2, 3), (-0.09, 4, 5))):
-        leg_y = [0.90, 0.78, 0.62, 0.50, 0.46, 0.30, 0.14, 0.06]
-        leg, leg_faces = _tube(x, leg_y, [0.075, 0.078, 0.064, 0.052, 0.05, 0.047, 0.038, 0.04],
-                               [0.075, 0.078, 0.064, 0.052, 0.05, 0.047, 0.038, 0.05])
+    for x, thigh, shin in ((LEG_X, 2, 3), (-LEG_X, 4, 5)):
+        leg, leg_faces = _tube(x, LEG_Y, LEG_RX, LEG_RZ)
         offset = sum(len(p) for p in parts)
         faces += [tuple(i + offset for i in f) for f in leg_faces]
         parts.append(leg)
@@ -327,10 +387,12 @@ def write_walk_shot(path: Path) -> None:
     stage.SetFramesPerSecond(24.0)
     stage.SetStartTimeCode(SHOT_FRAMES[0])
     stage.SetEndTimeCode(SHOT_FRAMES[1])
-    stage.GetRootLayer().customLayerData = {"clothtool": {"solver": "production"}}
+    # 100 iterations a frame: the production preset's 12.5 leave the skirt on the walking body
+    # stretched by a sixth
+    stage.GetRootLayer().customLayerData = {"clothtool": {"solver": {"preset": "production", "frequency": SHOT_FREQUENCY}}}
     root = UsdGeom.Xform.Define(stage, "/Shot")
     stage.SetDefaultPrim(root.GetPrim())
-    skel_root = UsdSkel.Root.Define(stage, "/Shot/Character")
+    UsdSkel.Root.Define(stage, "/Shot/Character")
     skeleton = UsdSkel.Skeleton.Define(stage, "/Shot/Character/Skeleton")
     skeleton.CreateJointsAttr(JOINTS)
     skeleton.CreateBindTransformsAttr(Vt.Matrix4dArray(
@@ -361,7 +423,7 @@ def write_walk_shot(path: Path) -> None:
     UsdPhysics.CollisionAPI.Apply(body.GetPrim())
     body.GetPrim().CreateAttribute("clothtool:thickness", Sdf.ValueTypeNames.Double).Set(0.005)
 
-    pos, uv, quads, pin, _ = skirt_grid(columns=36, rings=14)
+    pos, uv, quads, pin, _ = fitted_skirt(columns=36, rings=14)
     skirt = UsdGeom.Mesh.Define(stage, "/Shot/Skirt")
     skirt.CreatePointsAttr(Vt.Vec3fArray([Gf.Vec3f(*map(float, p)) for p in pos]))
     skirt.CreateFaceVertexCountsAttr(Vt.IntArray([4] * len(quads)))
@@ -376,6 +438,8 @@ def write_walk_shot(path: Path) -> None:
     prim.CreateAttribute("clothtool:role", Sdf.ValueTypeNames.String).Set("cloth")
     prim.CreateAttribute("clothtool:cook:preset", Sdf.ValueTypeNames.String).Set("garment")
     prim.CreateAttribute("clothtool:material", Sdf.ValueTypeNames.String).Set("cotton")
+    for name, value in SHOT_MATERIAL.items():
+        prim.CreateAttribute(f"clothtool:material:{name}", Sdf.ValueTypeNames.Double).Set(value)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(stage.GetRootLayer().ExportToString())
 

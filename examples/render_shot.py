@@ -50,11 +50,15 @@ def render(shot: Path, cache: Path, frame: int, output: Path) -> None:
         # USD is Y up; matplotlib draws Z up: plot (x, z, y)
         swap = [0, 2, 1]
         body_points = body.mesh_points[:, swap]
-        axes.add_collection3d(Poly3DCollection(body_points[body.mesh_triangles], facecolor="#c8b8a8",
-                                               edgecolor="#8a7a6a", linewidths=0.2, alpha=0.9))
+        polygons = list(body_points[body.mesh_triangles])
+        colours = [("#c8b8a8", "#8a7a6a")] * len(polygons)
         for points, faces in cloth_faces(cache, frame):
-            axes.add_collection3d(Poly3DCollection([points[f][:, swap] for f in faces], facecolor="#3d6fb6",
-                                                   edgecolor="#1d3f76", linewidths=0.3, alpha=0.85))
+            polygons += [points[f][:, swap] for f in faces]
+            colours += [("#3d6fb6", "#1d3f76")] * len(faces)
+        # one collection: matplotlib sorts polygons by depth within a collection only, so the
+        # body and the skirt in two would draw one wholly over the other
+        axes.add_collection3d(Poly3DCollection(polygons, facecolors=[c for c, _ in colours],
+                                               edgecolors=[e for _, e in colours], linewidths=0.25, alpha=0.9), autolim=False)
         centre = body_points.mean(axis=0)
         for set_limits, axis in ((axes.set_xlim, 0), (axes.set_ylim, 1), (axes.set_zlim, 2)):
             set_limits(centre[axis] - 0.8, centre[axis] + 0.8)

@@ -4,9 +4,11 @@ Each ``[collider.NAME]`` has a ``kind`` (sphere, capsule, plane, convex, mesh), 
 its own local coordinates, an optional ``track`` that moves it (local -> world, with
 scale), a ``thickness`` (margin, scene units) and a ``friction`` coefficient. Mesh colliders
 come from any mesh file ``clothtool cook`` reads and may deform with per-frame points from an
-NPZ file (arrays ``frame`` (k,) and ``points`` (k, m, 3)). In a USD file ``prim`` picks the
-mesh; a prim that moves (time-sampled points or transform) or is skinned with UsdSkel is
-read as a USD stage's bodies are (``clothtool.scene.usdbodies``) over the scene's frames.
+NPZ file (arrays ``frame`` (k,) and ``points`` (k, m, 3), in the mesh file's units). In a USD
+file ``prim`` picks the mesh; a prim that moves (time-sampled points or transform) or is skinned
+with UsdSkel is read as a USD stage's bodies are (``clothtool.scene.usdbodies``) over the
+scene's frames. A mesh file that says its units (USD's metersPerUnit and upAxis, glTF) is
+brought into the scene's units (``clothtool.scene.bodyunits``).
 """
 
 from __future__ import annotations
@@ -289,9 +291,10 @@ def _planes(ctx, table: dict, where: str) -> np.ndarray:
     return planes
 
 
-def _mesh(ctx, table: dict, where: str):
+def _mesh(ctx, table: dict, where: str, shot: Shot):
     from clothtool.io.meshin import read_mesh
     from clothtool.mesh import topology
+    from clothtool.mesh.units import unit_change
 
     path = ctx.base / str(table["mesh"])
     try:
@@ -317,8 +320,13 @@ def _mesh(ctx, table: dict, where: str):
             ctx.fail(where, f"deform file {deform.name}: 'points' has shape {points.shape}, expected ({frames.shape[0]}, {mesh.vertex_count}, 3)")
         if np.any(np.diff(frames) <= 0) or not np.isfinite(points).all():
             ctx.fail(where, f"deform file {deform.name}: frames must increase and points be finite")
+    # a file that says its units is read in the scene's; one that does not is taken as written
+    scale, rotation = unit_change(mesh.meters_per_unit or shot.meters_per_unit, mesh.up_axis or shot.up_axis,
+                                  shot.meters_per_unit, shot.up_axis)
+    vertex_pos = scale * (mesh.vertex_pos.astype(np.float64) @ rotation.T)
+    points = None if points is None else scale * (points @ rotation.T)
     return (
-        mesh.vertex_pos.astype(np.float64),
+        vertex_pos,
         triangles.astype(np.int32),
         (mesh.face_vertex_counts.astype(np.int32), mesh.face_vertex_indices.astype(np.int32)),
         frames,
@@ -329,7 +337,8 @@ def _mesh(ctx, table: dict, where: str):
 def _moving_usd_body(ctx, name: str, table: dict, where: str, shot: Shot) -> Collider | None:
     """The collider of ``table``'s USD ``prim`` when it moves or is skinned (sampled over the
     scene's frames as a USD stage's bodies are); None for a still prim, which reads as any mesh."""
-    from clothtool.scene.usdbodies import body_collider, open_stage, shot_clock, skinning_targets, with_preroll
+    from clothtool.scene.bodyunits import body_in_scene_units
+    from clothtool.scene.usdbodies import body_collider, open_stage, shot_clock, skinning_targets, stage_units, with_preroll
 
     path, prim_path = ctx.base / str(table["mesh"]), table["prim"]
     if not isinstance(prim_path, str) or not prim_path.startswith("/"):
@@ -347,6 +356,7 @@ def _moving_usd_body(ctx, name: str, table: dict, where: str, shot: Shot) -> Col
     try:
         clock = shot_clock(stage, shot.fps, shot.start, shot.end)
         body = body_collider(prim, name, clock, skinning_targets(stage, source).get(prim_path), source)
+        body = body_in_scene_units(body, *stage_units(stage, source), shot.meters_per_unit, shot.up_axis)
     except ClothtoolError as exc:
         ctx.fail(where, f"mesh: {exc}")
     if body.deform_points is None and (body.track is None or body.track.is_static):
@@ -408,19 +418,22 @@ def _collider(ctx, name: str, table: dict, tracks: dict[str, Track], shot: Shot)
         body = _moving_usd_body(ctx, name, table, where, shot)
         if body is not None:
             return dataclasses.replace(body, thickness=thickness, friction=friction)
-    points, triangles, faces, frames, deform = _mesh(ctx, table, where)
+    points, triangles, faces, frames, deform = _mesh(ctx, table, where, shot)
     return Collider(centers=none3, radii=none1, planes=no_planes, mesh_points=points, mesh_triangles=triangles,
                     mesh_faces=faces, deform_frames=frames, deform_points=deform, **common)
 
 
 @dataclasses.dataclass(frozen=True)
 class Shot:
-    """The scene's frames (at ``fps``, pre-roll included) that moving USD bodies are sampled over."""
+    """The scene's frames (at ``fps``, pre-roll included) that moving USD bodies are sampled
+    over, and the scene's units that bodies are read in."""
 
     fps: float
     start: int
     end: int
     preroll: int = 0
+    meters_per_unit: float = 1.0
+    up_axis: str = "Y"
 
 
 def load_colliders(ctx, tables: dict, tracks: dict[str, Track], shot: Shot) -> SceneColliders:

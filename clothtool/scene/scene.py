@@ -428,7 +428,7 @@ def load_scene(
     if "collider" in tables:
         from clothtool.scene.colliders import Shot, load_colliders
 
-        colliders = load_colliders(ctx, tables["collider"], tracks, Shot(fps, start, end, preroll))
+        colliders = load_colliders(ctx, tables["collider"], tracks, Shot(fps, start, end, preroll, mpu, up_axis))
     for cloth in cloths:
         kinds = {c.name: c.kind for c in colliders.colliders} if colliders is not None else {}
         missing = [a for a in cloth.attach if kinds.get(a) != "mesh"]

@@ -10,6 +10,12 @@
 * Meshes skinned with UsdSkel are skinned by pxr (``UsdSkel.SkinningQuery``) at every frame;
   their points are stored in world space (no track). Blend shapes are refused.
 
+A body referenced (or payloaded) from a layer whose authored ``metersPerUnit`` or ``upAxis``
+differ from the stage's is scaled and turned into the stage's units below the referencing
+prim's own transform (``unit_root``); USD composes such a reference as it is, in the wrong
+size. A referencing prim with a ``unitsResolve`` op (Omniverse's metrics assembler) is
+taken as converted already.
+
 Times: a stage's time codes are frames at ``timeCodesPerSecond``; tracks are in seconds.
 """
 
@@ -63,6 +69,74 @@ def open_stage(path: Path):
     return stage
 
 
+def stage_units(stage, source: str) -> tuple[float, str]:
+    """(metersPerUnit, upAxis) of the stage, which its bodies' coordinates are written in."""
+    from pxr import UsdGeom
+
+    mpu, up_axis = float(UsdGeom.GetStageMetersPerUnit(stage)), str(UsdGeom.GetStageUpAxis(stage))
+    if not (np.isfinite(mpu) and mpu > 0):
+        raise SceneError(f"{source}: stage metadata metersPerUnit = {mpu:g}; give a positive size (0.01 for centimetres)")
+    if up_axis not in ("Y", "Z"):
+        raise SceneError(f"{source}: stage upAxis is {up_axis!r}; clothtool reads Y-up or Z-up stages, re-export with one")
+    return mpu, up_axis
+
+
+@dataclasses.dataclass(frozen=True)
+class UnitRoot:
+    """A prim that references (or payloads) a layer written in other units than the stage's:
+    its content (the referenced prims, their transforms and points) is scaled by ``scale`` and
+    turned by ``rotation`` below the prim's own transform, as Omniverse's metrics assembler
+    does with an ``xformOp:scale:unitsResolve`` op appended to the referencing prim."""
+
+    path: str
+    scale: float
+    rotation: np.ndarray  # (3,3)
+    xformable: object
+
+    def correction(self, time_code) -> np.ndarray:
+        """4x4 (column-vector convention) taking the uncorrected world to the corrected one at
+        ``time_code``: the prim's world transform, the unit change, and back."""
+        world = _matrix(self.xformable, time_code)
+        change = np.eye(4)
+        change[:3, :3] = self.scale * self.rotation
+        return world @ change @ np.linalg.inv(world)
+
+
+UNITS_RESOLVED_OPS = ("xformOp:scale:unitsResolve", "xformOp:rotateX:unitsResolve")
+
+
+def unit_root(prim, stage_units: tuple[float, str], source: str) -> UnitRoot | None:
+    """The nearest prim at or above ``prim`` that references a layer whose authored
+    metersPerUnit or upAxis differ from the stage's (None: none does, or the referencing prim
+    already carries a ``unitsResolve`` op that converts it)."""
+    from pxr import Usd, UsdGeom
+
+    from clothtool.mesh.units import unit_change
+
+    walk = prim
+    while walk and not walk.IsPseudoRoot():
+        query_filter = Usd.PrimCompositionQuery.Filter()
+        query_filter.arcTypeFilter = Usd.PrimCompositionQuery.ArcTypeFilter.ReferenceOrPayload
+        query_filter.dependencyTypeFilter = Usd.PrimCompositionQuery.DependencyTypeFilter.Direct
+        for arc in Usd.PrimCompositionQuery(walk, query_filter).GetCompositionArcs():
+            layer = arc.GetTargetNode().layerStack.identifier.rootLayer
+            info = layer.pseudoRoot
+            mpu = float(info.GetInfo(UsdGeom.Tokens.metersPerUnit)) if info.HasInfo(UsdGeom.Tokens.metersPerUnit) else stage_units[0]
+            up = str(info.GetInfo(UsdGeom.Tokens.upAxis)) if info.HasInfo(UsdGeom.Tokens.upAxis) else stage_units[1]
+            where = f"{source}: prim {walk.GetPath()} references {layer.identifier.rsplit('/', 1)[-1]}"
+            if not (np.isfinite(mpu) and mpu > 0) or up not in ("Y", "Z"):
+                raise SceneError(f"{where}, whose metersPerUnit {mpu:g} / upAxis {up!r} clothtool cannot read; fix the layer's metadata")
+            if (mpu, up) == stage_units:
+                continue
+            ops = {op.GetOpName() for op in UsdGeom.Xformable(walk).GetOrderedXformOps()}
+            if ops & set(UNITS_RESOLVED_OPS):
+                return None  # the referencing prim converts it already
+            scale, rotation = unit_change(mpu, up, *stage_units)
+            return UnitRoot(str(walk.GetPath()), scale, rotation, UsdGeom.Xformable(walk))
+        walk = walk.GetParent()
+    return None
+
+
 def shot_clock(stage, fps: float, start: int, end: int) -> ShotClock:
     """The stage's time codes that cover scene frames ``start``..``end`` at ``fps`` (the stage
     may run at another rate: its time codes are converted through seconds)."""
@@ -98,8 +172,9 @@ def _transform_times(prim, clock: ShotClock) -> np.ndarray:
     return np.array(sorted(times), np.float64)
 
 
-def transform_track(prim, clock: ShotClock, source: str) -> Track:
-    """The prim's local-to-world transform as a slerped track (see module docstring)."""
+def transform_track(prim, clock: ShotClock, source: str, units: UnitRoot | None = None) -> Track:
+    """The prim's local-to-world transform as a slerped track (see module docstring), in the
+    stage's units (``units``: the prim's content comes from a layer in other units)."""
     from pxr import Usd, UsdGeom
 
     xformable = UsdGeom.Xformable(prim)
@@ -107,7 +182,10 @@ def transform_track(prim, clock: ShotClock, source: str) -> Track:
     translations, rotations, scales = [], [], []
     for time in times:
         where = f"{source}: prim {prim.GetPath()} at time code {time:g}"
-        t, q, s = decompose_matrix(_matrix(xformable, Usd.TimeCode(time)), where)
+        matrix = _matrix(xformable, Usd.TimeCode(time))
+        if units is not None:
+            matrix = units.correction(Usd.TimeCode(time)) @ matrix
+        t, q, s = decompose_matrix(matrix, where)
         translations.append(t)
         rotations.append(q)
         scales.append(s)
@@ -170,11 +248,14 @@ def _analytic(prim, type_name: str, source: str) -> dict:
     return dict(kind="plane", centers=none3, radii=none1, planes=np.array([[*normal, 0.0]]))
 
 
-def _topology(mesh, source: str):
-    """Face counts and indices (refusing time samples that change them) and triangles."""
-    from pxr import Usd
+COLLIDER_KEEPS_TOPOLOGY = "a collider keeps its topology: export a fixed-topology mesh (or a point cache of the same mesh)"
 
-    from clothtool.mesh import topology
+
+def fixed_topology(mesh, source: str, keeps: str = COLLIDER_KEEPS_TOPOLOGY, points: bool = False) -> dict[str, np.ndarray]:
+    """{'faceVertexCounts', 'faceVertexIndices'}: the mesh's faces, refusing time samples that
+    change them (and with ``points``, the number of points; colliders check that at every frame
+    they sample); ``keeps`` says why and how to fix it."""
+    from pxr import Usd
 
     path = mesh.GetPath()
     values = {}
@@ -183,11 +264,25 @@ def _topology(mesh, source: str):
         first = np.asarray(attr.Get(Usd.TimeCode(samples[0]) if samples else Usd.TimeCode.Default()) or [], np.int64)
         for time in samples[1:]:
             if not np.array_equal(np.asarray(attr.Get(Usd.TimeCode(time)), np.int64), first):
-                raise SceneError(
-                    f"{source}: prim {path} changes '{attr.GetName()}' at time code {time:g}; a collider keeps "
-                    "its topology: export a fixed-topology mesh (or a point cache of the same mesh)"
-                )
+                raise SceneError(f"{source}: prim {path} changes '{attr.GetName()}' at time code {time:g}; {keeps}")
         values[attr.GetName()] = first
+    attr = mesh.GetPointsAttr()
+    sizes = {time: len(attr.Get(Usd.TimeCode(time)) or []) for time in (attr.GetTimeSamples() if points else [])}
+    if len(set(sizes.values())) > 1:
+        time = next(t for t, n in sizes.items() if n != next(iter(sizes.values())))
+        raise SceneError(
+            f"{source}: prim {path} has {sizes[time]} points at time code {time:g} but "
+            f"{next(iter(sizes.values()))} at its first sample; {keeps}"
+        )
+    return values
+
+
+def _topology(mesh, source: str):
+    """Face counts and indices (refusing time samples that change them) and triangles."""
+    from clothtool.mesh import topology
+
+    path = mesh.GetPath()
+    values = fixed_topology(mesh, source)
     counts, indices = values["faceVertexCounts"].astype(np.int32), values["faceVertexIndices"].astype(np.int32)
     if int(counts.sum()) != indices.size or counts.size == 0:
         raise SceneError(f"{source}: prim {path} faceVertexCounts and faceVertexIndices do not match; re-export the mesh")
@@ -256,7 +351,7 @@ def _skinning_targets(stage, Usd, UsdSkel) -> dict:
     return targets
 
 
-def _skinned(prim, skinning, clock: ShotClock, source: str) -> dict:
+def _skinned(prim, skinning, clock: ShotClock, source: str, units: UnitRoot | None) -> dict:
     """A UsdSkel-skinned mesh, skinned by pxr at every frame, in world space; its rest points
     are the bind pose (the points through the geomBindTransform)."""
     from pxr import Gf, Usd, UsdGeom, Vt
@@ -279,6 +374,8 @@ def _skinned(prim, skinning, clock: ShotClock, source: str) -> dict:
     rest_local = _points(points_attr, Usd.TimeCode.EarliestTime(), None, source, path)
     bind = np.array(target.GetGeomBindTransform(Usd.TimeCode.EarliestTime()), np.float64)
     rest = rest_local @ bind[:3, :3] + bind[3, :3]
+    if units is not None:  # the bind pose is in the skeleton's space: converted as at the first frame
+        rest = _moved(rest, units.correction(Usd.TimeCode(clock.first)))
     skeleton_xformable = UsdGeom.Xformable(skeleton.GetPrim())
     frames = clock.frames
     deformed = []
@@ -306,26 +403,39 @@ def _skinned(prim, skinning, clock: ShotClock, source: str) -> dict:
                 )
             skinned = np.asarray(values, np.float64)
         to_world = np.array(skeleton_xformable.ComputeLocalToWorldTransform(time), np.float64)
-        deformed.append(skinned @ to_world[:3, :3] + to_world[3, :3])
+        world = skinned @ to_world[:3, :3] + to_world[3, :3]
+        deformed.append(world if units is None else _moved(world, units.correction(time)))
     return dict(kind="mesh", mesh_points=rest, mesh_triangles=triangles, mesh_faces=(counts, indices),
                 deform_frames=frames, deform_points=np.stack(deformed), rest_points=rest)
 
 
-def body_collider(prim, name: str, clock: ShotClock, skinning, source: str) -> Collider:
+def _moved(points: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """(m,3) points through a 4x4 column-vector-convention matrix."""
+    return points @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def body_collider(prim, name: str, clock: ShotClock, skinning, source: str, units: UnitRoot | None = None) -> Collider:
     """The collider of one prim (see module docstring); ``skinning`` is its entry of
-    ``skinning_targets`` or None."""
+    ``skinning_targets`` or None; ``units`` its ``unit_root`` when it comes from a layer in
+    other units than the stage's (its thickness is then in that layer's units too)."""
     type_name = str(prim.GetTypeName())
-    thickness = _number(prim, THICKNESS_ATTR, 0.0, source)
+    thickness = _number(prim, THICKNESS_ATTR, 0.0, source) * (1.0 if units is None else units.scale)
     friction = _number(prim, FRICTION_ATTR, float("nan"), source) if prim.GetAttribute(FRICTION_ATTR) else float("nan")
     common = dict(name=name, thickness=thickness, friction=friction, fps=clock.tcps)
     none3, none1, no_planes = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))
     if skinning is not None:
         from clothtool.io.usd_env import quiet_stderr
 
+        if type_name != "Mesh":
+            raise SceneError(
+                f"{source}: prim {prim.GetPath()} is a {type_name or 'typeless prim'} skinned by UsdSkel, and clothtool "
+                "skins Mesh prims only; export it as a skinned Mesh or a point cache, or parent it under an animated xform"
+            )
+
         with quiet_stderr():  # pxr warns on stderr; what matters is raised in one line
-            fields = _skinned(prim, skinning, clock, source)
+            fields = _skinned(prim, skinning, clock, source, units)
         return Collider(track=None, centers=none3, radii=none1, planes=no_planes, **fields, **common)
-    track = transform_track(prim, clock, source)
+    track = transform_track(prim, clock, source, units)
     if type_name in ANALYTIC_TYPES:
         return Collider(track=track, **_analytic(prim, type_name, source), **common)
     if type_name == "Mesh":

@@ -59,7 +59,9 @@ def is_usd_stage(path: Path) -> bool:
 
 
 def _plain(value):
-    """A pxr attribute value as TOML would give it (lists, str, float, int, bool)."""
+    """A pxr attribute value as TOML would give it (tables, lists, str, float, int, bool)."""
+    if isinstance(value, dict):  # customLayerData's nested dictionaries
+        return {str(k): _plain(v) for k, v in value.items()}
     if hasattr(value, "__len__") and not isinstance(value, str):
         return [_plain(v) for v in value]
     if isinstance(value, (bool, int, float, str)):
@@ -67,13 +69,24 @@ def _plain(value):
     return str(value)
 
 
-def _prefixed(prim, prefix: str) -> dict:
-    """{name after prefix: value} of the prim's authored attributes under ``prefix``."""
-    values = {}
+def _prefixed(prim, prefix: str, where: str) -> dict:
+    """{name after prefix: value} of the prim's authored attributes under ``prefix``; a
+    further namespace is a nested table, as in TOML (``shearing:stiffness`` ->
+    ``{"shearing": {"stiffness": ...}}``)."""
+    values: dict = {}
     for attr in prim.GetAttributes():
         name = attr.GetName()
         if name.startswith(prefix) and attr.HasAuthoredValue():
-            values[name[len(prefix):]] = _plain(attr.Get())
+            *tables, key = name[len(prefix):].split(":")
+            table = values
+            for depth, part in enumerate(tables):
+                table = table.setdefault(part, {})
+                if not isinstance(table, dict):
+                    name = ":".join(tables[: depth + 1])
+                    raise SceneError(f"{where}: {prefix}{name} is both a value and a namespace; keep one of them")
+            if isinstance(table.get(key), dict):
+                raise SceneError(f"{where}: {prefix}{':'.join([*tables, key])} is both a value and a namespace; keep one of them")
+            table[key] = _plain(attr.Get())
     return values
 
 
@@ -122,7 +135,7 @@ def _stage_tables(stage, path: Path, frames) -> dict:
         scene["preroll"] = _plain(custom["preroll"])
     tables = {"scene": scene, "solver": _plain(custom.get("solver", "production")), "output": {}}
     if "output" in custom:
-        tables["output"] = {k: _plain(v) for k, v in dict(custom["output"]).items()}
+        tables["output"] = _plain(dict(custom["output"]))
     return tables
 
 
@@ -131,9 +144,14 @@ def _schema() -> dict:
     return {key: schema[key] for key in OVERRIDE_SECTIONS}
 
 
+GARMENT_KEEPS_TOPOLOGY = "a garment keeps one topology: export its rest shape without time samples"
+
+
 def _select(stage, path: Path, cloth_paths, collider_patterns):
     """(cloth prims, collider prims) of the stage."""
     from pxr import UsdGeom, UsdPhysics
+
+    from clothtool.scene.usdbodies import fixed_topology
 
     prims = list(stage.Traverse())
     if cloth_paths:
@@ -155,6 +173,8 @@ def _select(stage, path: Path, cloth_paths, collider_patterns):
                 f"{path}: cloth prim {prim.GetPath()} is a {prim.GetTypeName() or 'typeless prim'}, not a Mesh; "
                 "mark the garment's Mesh prim instead"
             )
+        # the cook reads one rest shape and the output layer overrides points at every frame
+        fixed_topology(UsdGeom.Mesh(prim), str(path), GARMENT_KEEPS_TOPOLOGY, points=True)
     cloth_set = {str(p.GetPath()) for p in cloths}
     if collider_patterns:
         colliders = []
@@ -221,13 +241,13 @@ def _attach(prim, collider_names: dict[str, str], mesh_colliders: list[str], whe
 def _cloth(ctx, stage_path: Path, prim, name, mpu, up_axis, strict, collider_names, mesh_colliders) -> ClothInstance:
     where = f"{stage_path}: prim {prim.GetPath()}"
     try:
-        mesh, result = _cook(stage_path, prim, _prefixed(prim, COOK_PREFIX), mpu, up_axis, strict)
+        mesh, result = _cook(stage_path, prim, _prefixed(prim, COOK_PREFIX, where), mpu, up_axis, strict)
     except ClothtoolError as exc:
         text = str(exc)
         raise SceneError(text if text.startswith(str(stage_path)) else f"{where}: {text}") from None
     material_table = {"preset": str(prim.GetAttribute(MATERIAL_ATTR).Get())} if prim.GetAttribute(MATERIAL_ATTR) else {}
     material_table.setdefault("preset", "cotton")
-    material_table.update(_prefixed(prim, MATERIAL_PREFIX))
+    material_table.update(_prefixed(prim, MATERIAL_PREFIX, where))
     try:
         material = load_material(material_table, f"{where} {MATERIAL_PREFIX}*")
     except ClothtoolError as exc:
@@ -270,7 +290,15 @@ def load_usd_scene(
     """The Scene of a USD stage (see module docstring); ``cloth`` prim paths and ``collider``
     patterns replace the marked prims."""
     from clothtool.scene.colliders import SceneColliders
-    from clothtool.scene.usdbodies import body_collider, open_stage, shot_clock, skinning_targets, with_preroll
+    from clothtool.scene.usdbodies import (
+        body_collider,
+        open_stage,
+        shot_clock,
+        skinning_targets,
+        stage_units,
+        unit_root,
+        with_preroll,
+    )
 
     path = Path(path)
     if not path.is_file():
@@ -293,9 +321,11 @@ def load_usd_scene(
     skinned = skinning_targets(stage, str(path))
     collider_paths = [str(p.GetPath()) for p in collider_prims]
     collider_names = _names(collider_paths)
+    units = stage_units(stage, str(path))
     bodies = []
     for prim in collider_prims:
-        body = body_collider(prim, collider_names[str(prim.GetPath())], clock, skinned.get(str(prim.GetPath())), str(path))
+        body = body_collider(prim, collider_names[str(prim.GetPath())], clock, skinned.get(str(prim.GetPath())), str(path),
+                             unit_root(prim, units, str(path)))
         bodies.append(with_preroll(body, clock, fps, start, preroll))
     mesh_colliders = [p for p, body in zip(collider_paths, bodies) if body.kind == "mesh"]
     cloth_paths = [str(p.GetPath()) for p in cloth_prims]

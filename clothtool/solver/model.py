@@ -11,23 +11,9 @@ import dataclasses
 
 import numpy as np
 
-from clothtool.errors import SceneError
 from clothtool.fabric import Fabric, PhaseType
+from clothtool.mesh.units import up_axis_rotation
 from clothtool.settings import BackstopSettings, Material, MotionSettings, Placement
-
-# Rotations taking one up axis to another (columns: where the source axes go).
-_Z_UP_TO_Y_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
-
-
-def up_axis_rotation(source: str, target: str) -> np.ndarray:
-    """Rotation matrix taking coordinates with up axis ``source`` to up axis ``target``."""
-    if source == target:
-        return np.eye(3)
-    if (source, target) == ("Z", "Y"):
-        return _Z_UP_TO_Y_UP.copy()
-    if (source, target) == ("Y", "Z"):
-        return _Z_UP_TO_Y_UP.T.copy()
-    raise SceneError(f"unknown up axes {source!r} -> {target!r}; use Y or Z")
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -158,6 +158,27 @@ def test_metadata_overrides_and_cloth_settings_from_attributes(out_dir):
         load_usd_scene(path, ["scene.colour=1"])
 
 
+def test_nested_material_attributes_and_a_solver_table_in_the_layer(out_dir):
+    """``clothtool:material:shearing:stiffness`` is the material table's [shearing] stiffness,
+    and customLayerData's solver may be a table over a preset, as in a TOML scene."""
+    path = out_dir / "nested.usda"
+    stage = new_stage(path)
+    cloth = add_cloth(stage).GetPrim()
+    cloth.CreateAttribute("clothtool:material:shearing:stiffness", Sdf.ValueTypeNames.Double).Set(0.85)
+    cloth.CreateAttribute("clothtool:material:damping", Sdf.ValueTypeNames.Double).Set(0.0)
+    stage.GetRootLayer().customLayerData = {"clothtool": {"solver": {"preset": "preview", "frequency": 480.0}}}
+    stage.GetRootLayer().Save()
+    scene = load_usd_scene(path)
+    material = scene.cloths[0].material
+    assert (material.shearing.stiffness, material.damping) == (0.85, 0.0)
+    assert material.horizontal.stiffness == 1.0  # the rest of cotton stays
+    assert scene.solver.frequency == 480.0
+    cloth.CreateAttribute("clothtool:material:shearing", Sdf.ValueTypeNames.Double).Set(1.0)
+    stage.GetRootLayer().Save()
+    with pytest.raises(SceneError, match="clothtool:material:shearing is both a value and a namespace"):
+        load_usd_scene(path)
+
+
 # ------------------------------------------------------------------------ bad input
 def _one_line(exc) -> str:
     text = str(exc.value)
