@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 # Collider edge samples at most this fraction of the cloth's median rest edge length apart.
-SAMPLE_SPACING = 0.5
+SAMPLE_SPACING = 0.25
 # At most this many samples inside one collider edge (a collider edge far longer than the
 # cloth's edges, a floor's, keeps this cap: its ends and the particles still collide).
 MAX_EDGE_SAMPLES = 32
