@@ -159,11 +159,14 @@ def _round_cone_depths(points: np.ndarray, triangles: np.ndarray, colliders: Col
     return depth_per_triangle
 
 
-def closed_meshes(triangles: np.ndarray, triangle_mesh: np.ndarray, meshes: int) -> np.ndarray:
-    """bool (meshes,): whether every edge of each mesh has exactly two triangles."""
+def closed_meshes(points: np.ndarray, triangles: np.ndarray, triangle_mesh: np.ndarray, meshes: int) -> np.ndarray:
+    """bool (meshes,): whether every edge of each mesh has exactly two triangles, vertices at
+    the same position counting as one (a box exported face by face is closed)."""
     closed = np.ones(meshes, bool)
     if triangles.shape[0] == 0:
         return closed
+    _, welded = np.unique(points, axis=0, return_inverse=True)
+    triangles = welded.reshape(-1)[triangles]
     edges = np.sort(np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=-1), axis=-1).reshape(-1, 2)
     owner = np.repeat(triangle_mesh, 3)
     keys, counts = np.unique(np.column_stack([owner, edges]), axis=0, return_counts=True)
@@ -189,7 +192,7 @@ def mesh_depths(points: np.ndarray, triangles: np.ndarray, colliders: ColliderAr
     mesh_margin = colliders.mesh_margin.astype(np.float64)
     mesh_points = np.ascontiguousarray(colliders.mesh_points, np.float64)
     corner_depth = np.empty(points.shape[0])
-    inside_depths(points, mesh_points, mesh_triangles, first, closed_meshes(mesh_triangles, owner, meshes), mesh_margin, corner_depth)
+    inside_depths(points, mesh_points, mesh_triangles, first, closed_meshes(mesh_points, mesh_triangles, owner, meshes), mesh_margin, corner_depth)
     margins = np.ascontiguousarray(mesh_margin[owner])
     t = mesh_triangles.shape[0]
     bounds = np.empty((t, 6))

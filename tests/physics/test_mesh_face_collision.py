@@ -7,12 +7,15 @@ thickness in the prism (grown by its own thickness) in any frame."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
+import pytest
 
 from clothtool.settings import SolverConfig
 from clothtool.solver.colliders import ColliderArrays
 from clothtool.solver.penetration import face_penetration
-from tests.physics.test_collision import THICKNESS, cloth_fabric, f32, run, solver_for
+from tests.physics.test_collision import THICKNESS, box_mesh, cloth_fabric, f32, run, solver_for
 
 RIDGE_THICKNESS = 0.003  # m: the prism's own margin
 HALF_WIDTH = 0.01  # m: half the prism's base; particles sit 2.5 cm either side of the crest
@@ -64,3 +67,43 @@ def test_face_collision_hangs_the_sheet_on_the_ridge():
     # held at the crest (the rows beside it within a centimetre above it), hanging down both sides
     assert 0.0 < heights.max() < 0.01
     assert heights.min() < -0.1
+
+
+# ------------------------------------------------------------------ the measure
+def box(margin: float) -> ColliderArrays:
+    """The box [-0.1, 0.1]^2 x [-0.2, 0] (top face at y = 0), 2 x 2 cells per side."""
+    colliders = box_mesh((-0.1, -0.2, -0.1), (0.1, 0.0, 0.1), 2)
+    return dataclasses.replace(colliders, mesh_margin=np.full(1, margin, np.float32))
+
+
+def triangle(corners) -> tuple[np.ndarray, np.ndarray]:
+    return np.asarray(corners, np.float64), np.array([[0, 1, 2]], np.int32)
+
+
+def test_measure_of_a_face_above_a_mesh_is_margin_minus_its_height():
+    """A tilted face whose lowest point, a corner over the box's top, is h above it; and a
+    face over the box's edge whose lowest point is on its own edge (edge-edge distance)."""
+    for h in (0.001, 0.004):
+        points, triangles = triangle([[0.02, h, 0.03], [0.3, h + 0.05, 0.0], [0.0, h + 0.02, 0.3]])
+        assert face_penetration(points, triangles, box(0.005), 1.0, THICKNESS).depth == pytest.approx(0.005 - h, abs=1e-6)
+    # a face beside the box, its near edge parallel to the box's edge x = 0.1, y = 0, s away
+    s = 0.002
+    points, triangles = triangle([[0.1 + s, 0.0, -0.05], [0.1 + s, 0.0, 0.05], [0.2, -0.1 + s, 0.0]])
+    expected = 0.005 - s
+    assert face_penetration(points, triangles, box(0.005), 1.0, THICKNESS).depth == pytest.approx(expected, abs=1e-6)
+
+
+def test_measure_of_faces_through_a_mesh():
+    """A face with a corner 1 cm (3 cm) inside the closed box reaches the margin plus 1 cm
+    (3 cm); one through the top with no corner inside at least the margin; a face 5 cm away: none."""
+    points, triangles = triangle([[-0.05, 0.01, 0.0], [0.05, 0.01, 0.0], [0.0, -0.01, 0.02]])
+    result = face_penetration(points, triangles, box(0.005), 1.0, THICKNESS)
+    assert result.depth == pytest.approx(0.015, abs=1e-6) and result.faces_beyond == 1  # its corner 1 cm inside
+    points, triangles = triangle([[-0.05, 0.01, 0.0], [0.05, 0.01, 0.0], [0.0, 0.01, 0.3]])
+    points[2, 1] = -0.05  # through the top and out the side, its corner beyond the box
+    result = face_penetration(points, triangles, box(0.005), 1.0, THICKNESS)
+    assert result.depth >= 0.005 - 1e-6 and result.faces_beyond == 1
+    points, triangles = triangle([[0.0, -0.03, 0.0], [0.0, 0.05, 0.2], [0.05, 0.05, 0.2]])
+    assert face_penetration(points, triangles, box(0.005), 1.0, THICKNESS).depth == pytest.approx(0.035, abs=1e-6)
+    points, triangles = triangle([[0.0, 0.05, 0.0], [0.05, 0.05, 0.0], [0.0, 0.05, 0.05]])
+    assert face_penetration(points, triangles, box(0.005), 1.0, THICKNESS).depth == -np.inf
