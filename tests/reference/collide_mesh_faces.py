@@ -62,3 +62,38 @@ def collide_mesh_faces(cloth_triangles, owners, triangle_data, prev, mass_scale,
             cur[i, 3] *= 1 + (scale - 1) * bi
         corrected += 1
     return cur, corrected
+
+
+def _collider_point(T, t, k, owners):
+    """The kernel's helper: point k of the owned corners (by corner index) and edge samples."""
+    row = np.asarray(T[t], np.float64)
+    start, end = row[0:9].reshape(3, 3), row[9:18].reshape(3, 3)
+    if k < 3:
+        return (True, *start[k], *end[k]) if owners[t, 0] >> k & 1 else (False,) + (0.0,) * 6
+    samples = [(e, i) for e in range(3) for i in range(owners[t, 1 + e])]
+    if k - 3 >= len(samples):
+        return (False,) + (0.0,) * 6
+    e, i = samples[k - 3]
+    s = (i + 1) / (owners[t, 1 + e] + 1)
+    j = (e + 1) % 3
+    return (True, *((1 - s) * start[e] + s * start[j]), *((1 - s) * end[e] + s * end[j]))
+
+
+def _misses(R, T, t):
+    """The kernel's filter: every corner on one side of the start plane and beyond the margin
+    at the end, or on its side at the end with the boxes apart."""
+    r, row = np.asarray(R[0], np.float64), np.asarray(T[t], np.float64)
+    h0 = (row[0:9].reshape(3, 3) - r[0:3]) @ r[18:21]
+    h1 = (row[9:18].reshape(3, 3) - r[9:12]) @ r[21:24]
+    margin = row[24]
+    if (h0 >= 0).all():
+        if h1.min() >= margin:
+            return True
+        near = h1.min() >= 0
+    elif (h0 < 0).all():
+        if h1.max() <= -margin:
+            return True
+        near = h1.max() < 0
+    else:
+        return False
+    return bool(near and ((row[26:29] > r[29:32]) | (row[29:32] < r[26:29])).any())
