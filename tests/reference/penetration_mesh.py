@@ -13,17 +13,20 @@ def point_triangle_distance(p, a, b, c):
 
 
 def segment_distance(p0, p1, q0, q1):
-    """Minimum over a dense grid of both parameters, refined once around the best pair."""
-    s = np.linspace(0, 1, 401)
-    a = p0 + s[:, None] * (p1 - p0)
-    b = q0 + s[:, None] * (q1 - q0)
-    d = np.linalg.norm(a[:, None] - b[None], axis=-1)
-    i, j = np.unravel_index(d.argmin(), d.shape)
-    fine = np.linspace(-1 / 400, 1 / 400, 201)
-    si, sj = np.clip(s[i] + fine, 0, 1), np.clip(s[j] + fine, 0, 1)
-    a = p0 + si[:, None] * (p1 - p0)
-    b = q0 + sj[:, None] * (q1 - q0)
-    return float(np.linalg.norm(a[:, None] - b[None], axis=-1).min())
+    """Minimum over a grid of both parameters, refined three times around the best pair."""
+    lo_s = lo_t = 0.0
+    span = 1.0
+    best = np.inf
+    for _ in range(4):
+        s = np.clip(lo_s + np.linspace(0, span, 41), 0, 1)
+        t = np.clip(lo_t + np.linspace(0, span, 41), 0, 1)
+        d = np.linalg.norm((p0 + s[:, None] * (p1 - p0))[:, None] - (q0 + t[:, None] * (q1 - q0))[None], axis=-1)
+        i, j = np.unravel_index(d.argmin(), d.shape)
+        best = min(best, float(d[i, j]))
+        step = span / 40
+        span = 4 * step
+        lo_s, lo_t = s[i] - 2 * step, t[j] - 2 * step
+    return best
 
 
 def segment_crosses_triangle(p, q, a, b, c):
@@ -67,11 +70,15 @@ def inside_depths(points, mesh_points, mesh_triangles, mesh_first, mesh_closed, 
 
 
 def face_depths(points, triangles, corner_depth, mesh_points, mesh_triangles, margins, cell_start, cell_items, cell_ranges, grid, out):
-    """Every mesh triangle within its margin of the face (the grid arguments are unused)."""
+    """Every mesh triangle within its margin of the face, found without the grid (whose
+    arguments are unused)."""
     for f, tri in enumerate(triangles):
         A = points[tri]
         depth = max(corner_depth[tri])
         for t, mt in enumerate(mesh_triangles):
+            B = mesh_points[mt]
+            if (B.min(0) - margins[t] > A.max(0)).any() or (B.max(0) + margins[t] < A.min(0)).any():
+                continue  # farther than the margin
             gap = triangle_distance(A, mesh_points[mt])
             if gap < margins[t]:
                 depth = max(depth, margins[t] - gap)
