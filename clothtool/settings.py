@@ -137,7 +137,10 @@ class SolverConfig:
         particles: triangles too large for the smallest one get collision points inside
         (clothtool.solver.facepoints), so no face sinks into a collider between particles.
         Not with continuous_collision (the points collide discretely and would undo it for
-        a thin collider crossing the cloth faster than its width per iteration).
+        a thin collider crossing the cloth faster than its width per iteration). Against
+        triangle-mesh colliders the faces collide with the mesh's vertices and edge samples
+        (clothtool.solver.meshfaces), with continuous collision too: those contacts catch
+        crossings themselves.
     """
 
     frequency: float = 300.0

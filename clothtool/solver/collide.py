@@ -7,8 +7,10 @@ iteration's start (alpha0) and end (alpha1), moves them into the cloth's frame w
 simulates in a moving frame (start with the frame's pose at the iteration's start,
 ``history.before``, end with ``history.now``), then runs the collide kernels over the
 particles, the fabric's virtual particles and the collision points the stage adds inside faces
-too large for the smallest sphere or capsule (clothtool.solver.facepoints). Margins are each collider's thickness plus the
-cloth material's thickness (metres, converted to scene units).
+too large for the smallest sphere or capsule (clothtool.solver.facepoints), and last the
+cloth's faces against the mesh colliders' vertices and edge samples (clothtool.solver.meshfaces;
+not subject to the continuous-collision switch: its contacts catch crossings). Margins are
+each collider's thickness plus the cloth material's thickness (metres, converted to scene units).
 
 See clothtool.solver.kernels.collide for what a contact does (push-out averaging, friction,
 collision mass scale, continuous collision) and clothtool.solver.kernels.collide_mesh for how
@@ -25,6 +27,7 @@ from clothtool.errors import SceneError
 from clothtool.solver.colliders import ColliderArrays, friction_or
 from clothtool.solver.facepoints import face_points
 from clothtool.solver.iteration import FramePlan, Iteration
+from clothtool.solver.meshfaces import collider_owners, sample_spacing
 from clothtool.solver.kernels.collide import (
     collide_particles,
     collide_particles_for,
@@ -32,6 +35,7 @@ from clothtool.solver.kernels.collide import (
     collide_virtual,
 )
 from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
+from clothtool.solver.kernels.collide_mesh_faces import collide_mesh_faces
 from clothtool.solver.kernels.collide_pose import (
     convex_shift,
     convex_translation,
@@ -97,6 +101,14 @@ class CollideStage(Stage):
         # dragging the faces through it, so with continuous collision particles alone collide
         self.face_collision = bool(solver.config.face_collision) and not self.continuous
         self.face_points = 0  # collision points added inside faces (see _add_face_points)
+        # faces against mesh colliders' points: their contacts handle crossings themselves
+        self.mesh_faces = bool(solver.config.face_collision)
+        self.cloth_triangles = np.ascontiguousarray(model.triangles, I32)
+        self.sample_spacing = sample_spacing(model.rest_pos, self.cloth_triangles)
+        self.owners = np.zeros((0, 4), I32)  # see clothtool.solver.meshfaces.collider_owners
+        self.face_margin = real(0.0)  # the largest mesh margin
+        self.face_record = np.zeros((1, 32), real)
+        self.mesh_face_contacts = 0  # cloth triangles corrected by the last iteration
         self._faces_sized = False
         self.frame = np.zeros((8, 3))  # the cloth frame's poses at the iteration's start and end
         self.frame[0:3] = self.frame[4:7] = np.eye(3)
@@ -269,6 +281,9 @@ class CollideStage(Stage):
         self.cell_start = _at_least(self.cell_start, cells + 1)
         self.cell_items = _at_least(self.cell_items, entries)
         grid_fill(self.cell_ranges, self.grid, self.cell_start, self.cell_items)
+        if self.mesh_faces:
+            self.owners = collider_owners(self.triangles, worlds[0], self.sample_spacing)
+            self.face_margin = self.real(params[:, 0].max())
 
     # ------------------------------------------------------------------ per iteration
     def pose(self, iteration: Iteration) -> None:
@@ -357,6 +372,11 @@ class CollideStage(Stage):
         grid_layout(bounds, 1.0, grid)
         grid_cell_ranges(bounds, grid, self.cell_ranges[:0])
         grid_fill(self.cell_ranges[:0], grid, self.cell_start.copy(), self.cell_items[:0])
+        if self.mesh_faces:
+            collide_mesh_faces(
+                self.cloth_triangles[:0], self.owners[:0], *mesh, self.frame, state.prev[:0], self.face_margin,
+                self.mass_scale, self.meters_per_unit, self.face_record, state.cur[:0],
+            )
 
     def run(self, iteration: Iteration) -> None:
         state = self.solver.state
@@ -367,4 +387,9 @@ class CollideStage(Stage):
             collide_virtual(
                 self.virtual, self.virtual_weights, shapes, mesh, self.frame, state.prev, self.mass_scale,
                 self.meters_per_unit, state.cur,
+            )
+        if self.mesh_faces and self.triangle_data.shape[0]:
+            self.mesh_face_contacts = collide_mesh_faces(
+                self.cloth_triangles, self.owners, *mesh, self.frame, state.prev, self.face_margin, self.mass_scale,
+                self.meters_per_unit, self.face_record, state.cur,
             )

@@ -1,4 +1,5 @@
-"""How deep a cloth's faces sink into its sphere and capsule colliders (a measurement, numpy).
+"""How deep a cloth's faces sink into its colliders (a measurement: numpy for spheres and capsules,
+clothtool.solver.kernels.penetration_mesh for triangle meshes).
 
 Particles can all stay outside a collider while the faces between them sink into it: a
 capsule thinner than the cloth's edges slips between two particles. This measures the faces:
@@ -138,19 +139,13 @@ def _minimum(corners: np.ndarray, a, b, ra, rb, reach: np.ndarray) -> np.ndarray
     return low
 
 
-def face_penetration(
-    points: np.ndarray, triangles: np.ndarray, colliders: ColliderArrays, meters_per_unit: float, thickness_m: float
-) -> FacePenetration:
-    """The faces' penetration of ``colliders`` (same space and scene units as ``points``).
-
-    points: (n,3) cloth positions; triangles: i32 (t,3); thickness_m: the cloth's thickness in
-    metres (the threshold of ``faces_beyond``).
-    """
+def _round_cone_depths(points: np.ndarray, triangles: np.ndarray, colliders: ColliderArrays) -> np.ndarray:
+    """(t,) float64: how deep each triangle reaches into the spheres and capsules (-inf: near none)."""
+    depth_per_triangle = np.full(triangles.shape[0], -np.inf)
     a, b, ra, rb = _round_cones(colliders)
     if a.shape[0] == 0 or triangles.shape[0] == 0:
-        return FacePenetration(-np.inf, 0)
-    p = np.asarray(points, np.float64)
-    corners = p[triangles]  # (t,3,3)
+        return depth_per_triangle
+    corners = points[triangles]  # (t,3,3)
     centroid = corners.mean(axis=1)
     reach = np.linalg.norm(corners - centroid[:, None], axis=-1).max(axis=1)
     # the distance is 1-Lipschitz: a triangle reaches into a collider only when its centroid
@@ -158,9 +153,77 @@ def face_penetration(
     near = round_cone_distance(centroid[:, None], a[None], b[None], ra[None], rb[None]) <= reach[:, None]
     tri, col = np.nonzero(near)
     if tri.shape[0] == 0:
-        return FacePenetration(-np.inf, 0)
+        return depth_per_triangle
     distance = _minimum(corners[tri], a[col], b[col], ra[col], rb[col], reach[tri])
-    depth_per_triangle = np.full(triangles.shape[0], -np.inf)
     np.maximum.at(depth_per_triangle, tri, -distance)
+    return depth_per_triangle
+
+
+def closed_meshes(points: np.ndarray, triangles: np.ndarray, triangle_mesh: np.ndarray, meshes: int) -> np.ndarray:
+    """bool (meshes,): whether every edge of each mesh has exactly two triangles, vertices at
+    the same position counting as one (a box exported face by face is closed)."""
+    closed = np.ones(meshes, bool)
+    if triangles.shape[0] == 0:
+        return closed
+    _, welded = np.unique(points, axis=0, return_inverse=True)
+    triangles = welded.reshape(-1)[triangles]
+    edges = np.sort(np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=-1), axis=-1).reshape(-1, 2)
+    owner = np.repeat(triangle_mesh, 3)
+    keys, counts = np.unique(np.column_stack([owner, edges]), axis=0, return_counts=True)
+    closed[np.unique(keys[counts != 2, 0])] = False
+    return closed
+
+
+def mesh_depths(points: np.ndarray, triangles: np.ndarray, colliders: ColliderArrays) -> np.ndarray:
+    """(t,) float64: how deep each triangle reaches into the mesh colliders, grown by their
+    margins (clothtool.solver.kernels.penetration_mesh; -inf: near none)."""
+    depth_per_triangle = np.full(triangles.shape[0], -np.inf)
+    mesh_triangles = np.ascontiguousarray(colliders.mesh_triangles, np.int32)
+    if mesh_triangles.shape[0] == 0 or triangles.shape[0] == 0:
+        return depth_per_triangle
+    from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
+    from clothtool.solver.kernels.penetration_mesh import face_depths, inside_depths
+
+    order = np.argsort(colliders.triangle_mesh, kind="stable")
+    mesh_triangles = np.ascontiguousarray(mesh_triangles[order])
+    owner = colliders.triangle_mesh[order]
+    meshes = colliders.mesh_margin.shape[0]
+    first = np.searchsorted(owner, np.arange(meshes + 1)).astype(np.int64)
+    mesh_margin = colliders.mesh_margin.astype(np.float64)
+    mesh_points = np.ascontiguousarray(colliders.mesh_points, np.float64)
+    corner_depth = np.empty(points.shape[0])
+    inside_depths(points, mesh_points, mesh_triangles, first, closed_meshes(mesh_points, mesh_triangles, owner, meshes), mesh_margin, corner_depth)
+    margins = np.ascontiguousarray(mesh_margin[owner])
+    t = mesh_triangles.shape[0]
+    bounds = np.empty((t, 6))
+    triangle_bounds(mesh_points, mesh_points, mesh_triangles, margins, 0.0, bounds)
+    grid = np.empty(7)
+    cells = grid_layout(bounds, 16.0 * t, grid)
+    cell_ranges = np.empty((t, 6), np.int32)
+    entries = grid_cell_ranges(bounds, grid, cell_ranges)
+    cell_start = np.empty(cells + 1, np.int32)
+    cell_items = np.empty(max(entries, 1), np.int32)
+    grid_fill(cell_ranges, grid, cell_start, cell_items)
+    face_depths(
+        points, np.ascontiguousarray(triangles, np.int32), corner_depth, mesh_points, mesh_triangles, margins, cell_start,
+        cell_items, cell_ranges, grid, depth_per_triangle,
+    )
+    return depth_per_triangle
+
+
+def face_penetration(
+    points: np.ndarray, triangles: np.ndarray, colliders: ColliderArrays, meters_per_unit: float, thickness_m: float
+) -> FacePenetration:
+    """The faces' penetration of ``colliders`` (same space and scene units as ``points``):
+    spheres and capsules as in the module docstring, mesh colliders as in
+    clothtool.solver.kernels.penetration_mesh.
+
+    points: (n,3) cloth positions; triangles: i32 (t,3); thickness_m: the cloth's thickness in
+    metres (the threshold of ``faces_beyond``).
+    """
+    if triangles.shape[0] == 0:
+        return FacePenetration(-np.inf, 0)
+    p = np.ascontiguousarray(points, np.float64)
+    depth_per_triangle = np.maximum(_round_cone_depths(p, triangles, colliders), mesh_depths(p, triangles, colliders))
     depth = float(depth_per_triangle.max()) * meters_per_unit
     return FacePenetration(depth, int(np.count_nonzero(depth_per_triangle * meters_per_unit > thickness_m)))

@@ -18,6 +18,7 @@ from clothtool.solver.kernels.collide_mesh import (
     to_world,
     triangle_bounds,
     triangle_contact,
+    triangle_contact_within,
 )
 from tests.kernels._data import F32, assert_close, f32
 from tests.reference import collide_mesh as ref
@@ -182,3 +183,22 @@ def test_mesh_contact_grid_query_matches_brute_force(seed):
             np.testing.assert_allclose(got[4:7], want[4:7], atol=1e-4)
             assert got[7] == pytest.approx(want[7])
     assert hits > 12
+
+
+def test_triangle_contact_within_uses_its_margin():
+    """The record's box grown by 2 cm, the contact decided with a 1 cm margin: as the
+    reference with a 1 cm record."""
+    rng = np.random.default_rng(11)
+    hits = 0
+    for _ in range(200):
+        data = triangle_record(rng, margin=0.02)
+        end, n1 = data[0, 9:18].reshape(3, 3), data[0, 21:24]
+        p = f32(rng.dirichlet([1, 1, 1]) @ end + n1 * rng.uniform(-0.005, 0.02))
+        q = f32(p - n1 * 0.001)
+        got = triangle_contact_within(*p, *q, data, 0, F32(0.01))
+        want = ref.triangle_contact_within(*p, *q, data, 0, 0.01)
+        assert got[0] == want[0]
+        if want[0]:
+            hits += 1
+            assert_close(got[1:4], want[1:4], 1e-5, "push-out")
+    assert hits > 20

@@ -11,6 +11,7 @@ from clothtool.solver.kernels.collide_pose import (
     convex_shift,
     convex_translation,
     pack_capsules,
+    pack_triangle,
     pack_spheres,
     pack_triangles,
     pose_planes,
@@ -120,3 +121,13 @@ def test_convex_translation_and_shift_match_reference():
     expected = ref.convex_shift(out, frame, 0.25, data)
     convex_shift(out, frame, 0.25, data)
     assert_close(data, expected, 1e-6, "convex_shift")
+
+
+def test_pack_triangle_of_particle_states_matches_reference():
+    """One record from (n,4) particle states (column 3, the inverse mass, is not read)."""
+    rng = np.random.default_rng(5)
+    prev, cur = rng.normal(0, 1, (6, 4)), rng.normal(0, 1, (6, 4))
+    got, want = np.zeros((2, 32)), np.zeros((2, 32))
+    pack_triangle(prev, cur, 4, 1, 3, 0.01, 0.3, got, 1)
+    ref.pack_triangle(prev, cur, 4, 1, 3, 0.01, 0.3, want, 1)
+    np.testing.assert_allclose(got, want, atol=1e-12)

@@ -153,3 +153,9 @@ def mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, 
             shift = weights @ (end - start)
             best, result = size, (True, dx, dy, dz, *shift, mu)
     return result
+
+
+def triangle_contact_within(px, py, pz, qx, qy, qz, triangle_data, t, margin):
+    data = np.array(triangle_data, np.float64)
+    data[t, 24] = margin
+    return triangle_contact(px, py, pz, qx, qy, qz, data, t)

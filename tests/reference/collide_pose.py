@@ -90,3 +90,7 @@ def convex_shift(translation, frame, fraction, convex_data):
     out = np.asarray(convex_data, np.float64).copy()
     out[:, 2:5] = (fraction * np.asarray(translation, np.float64)) @ rotation
     return out
+
+
+def pack_triangle(points0, points1, a, b, c, margin, friction, out, row):
+    out[row] = pack_triangles(np.asarray(points0)[:, :3], np.asarray(points1)[:, :3], np.array([[a, b, c]]), [[margin, friction]])[0]

@@ -102,6 +102,13 @@ def triangle_contact(px, py, pz, qx, qy, qz, triangle_data, t):
     Returns (hit, dx, dy, dz, u, v): the push-out and the barycentric weights (of corners b
     and c) of the surface point it refers to, which friction uses for the surface's motion.
     """
+    return triangle_contact_within(px, py, pz, qx, qy, qz, triangle_data, t, triangle_data[t, 24])
+
+
+@kernel(inline="always")
+def triangle_contact_within(px, py, pz, qx, qy, qz, triangle_data, t, margin):
+    """triangle_contact with the given ``margin`` instead of the record's own, which must be
+    at least as large (its box, grown by the record's margin, rejects far points)."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
     miss = (False, zero, zero, zero, zero, zero)
@@ -109,7 +116,6 @@ def triangle_contact(px, py, pz, qx, qy, qz, triangle_data, t):
     n1x, n1y, n1z = T[t, 21], T[t, 22], T[t, 23]
     if n1x == zero and n1y == zero and n1z == zero:
         return miss  # degenerate
-    margin = T[t, 24]
     h0 = T[t, 18] * (qx - T[t, 0]) + T[t, 19] * (qy - T[t, 1]) + T[t, 20] * (qz - T[t, 2])
     side = one if h0 >= zero else -one
     a1x, a1y, a1z = T[t, 9], T[t, 10], T[t, 11]

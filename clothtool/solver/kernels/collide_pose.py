@@ -93,36 +93,43 @@ def pack_triangles(points0, points1, triangles, params, out):
     (b - a) x (c - a) at both (zero for a degenerate triangle), margin, friction (params), and
     the end corners' box grown by the margin."""
     for t in range(triangles.shape[0]):
-        for corner in range(3):
-            p = triangles[t, corner]
-            for d in range(3):
-                out[t, 3 * corner + d] = points0[p, d]
-                out[t, 9 + 3 * corner + d] = points1[p, d]
-        for pose in range(2):
-            o = 9 * pose
-            e1x = out[t, o + 3] - out[t, o]
-            e1y = out[t, o + 4] - out[t, o + 1]
-            e1z = out[t, o + 5] - out[t, o + 2]
-            e2x = out[t, o + 6] - out[t, o]
-            e2y = out[t, o + 7] - out[t, o + 1]
-            e2z = out[t, o + 8] - out[t, o + 2]
-            nx = e1y * e2z - e1z * e2y
-            ny = e1z * e2x - e1x * e2z
-            nz = e1x * e2y - e1y * e2x
-            length = np.sqrt(nx * nx + ny * ny + nz * nz)
-            scale = np.float32(1.0) / length if length > np.float32(1e-30) else np.float32(0.0)
-            out[t, 18 + 3 * pose] = nx * scale
-            out[t, 19 + 3 * pose] = ny * scale
-            out[t, 20 + 3 * pose] = nz * scale
-        margin = params[t, 0]
-        out[t, 24] = margin
-        out[t, 25] = params[t, 1]
+        pack_triangle(
+            points0, points1, triangles[t, 0], triangles[t, 1], triangles[t, 2], params[t, 0], params[t, 1], out, t
+        )
+
+
+@kernel
+def pack_triangle(points0, points1, a, b, c, margin, friction, out, row):
+    """out[row] = the record of the triangle of points a, b, c (see pack_triangles); reads
+    columns 0-2 of points0 and points1 only, so particle states (n,4) serve as they are."""
+    for corner, p in enumerate((a, b, c)):
         for d in range(3):
-            a = out[t, 9 + d]
-            b = out[t, 12 + d]
-            c = out[t, 15 + d]
-            out[t, 26 + d] = min(a, b, c) - margin
-            out[t, 29 + d] = max(a, b, c) + margin
+            out[row, 3 * corner + d] = points0[p, d]
+            out[row, 9 + 3 * corner + d] = points1[p, d]
+    for pose in range(2):
+        o = 9 * pose
+        e1x = out[row, o + 3] - out[row, o]
+        e1y = out[row, o + 4] - out[row, o + 1]
+        e1z = out[row, o + 5] - out[row, o + 2]
+        e2x = out[row, o + 6] - out[row, o]
+        e2y = out[row, o + 7] - out[row, o + 1]
+        e2z = out[row, o + 8] - out[row, o + 2]
+        nx = e1y * e2z - e1z * e2y
+        ny = e1z * e2x - e1x * e2z
+        nz = e1x * e2y - e1y * e2x
+        length = np.sqrt(nx * nx + ny * ny + nz * nz)
+        scale = np.float32(1.0) / length if length > np.float32(1e-30) else np.float32(0.0)
+        out[row, 18 + 3 * pose] = nx * scale
+        out[row, 19 + 3 * pose] = ny * scale
+        out[row, 20 + 3 * pose] = nz * scale
+    out[row, 24] = margin
+    out[row, 25] = friction
+    for d in range(3):
+        x = out[row, 9 + d]
+        y = out[row, 12 + d]
+        z = out[row, 15 + d]
+        out[row, 26 + d] = min(x, y, z) - margin
+        out[row, 29 + d] = max(x, y, z) + margin
 
 
 @kernel
