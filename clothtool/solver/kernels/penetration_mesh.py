@@ -95,17 +95,21 @@ def triangle_distance(A, B):
 
 @kernel
 def winding_number(p, points, triangles, first, last):
-    """Generalized winding number of p w.r.t. triangles[first:last] (Van Oosterom & Strackee)."""
+    """Generalized winding number of p w.r.t. triangles[first:last] (Van Oosterom & Strackee).
+    Scalar arithmetic: it runs for every particle against every body triangle, and small
+    temporary arrays per triangle made it the bulk of a bake's stats time."""
+    px, py, pz = p[0], p[1], p[2]
     total = 0.0
     for t in range(first, last):
-        a = points[triangles[t, 0]] - p
-        b = points[triangles[t, 1]] - p
-        c = points[triangles[t, 2]] - p
-        la = np.sqrt(np.sum(a * a))
-        lb = np.sqrt(np.sum(b * b))
-        lc = np.sqrt(np.sum(c * c))
-        det = np.sum(a * np.cross(b, c))
-        div = la * lb * lc + np.sum(a * b) * lc + np.sum(b * c) * la + np.sum(c * a) * lb
+        i, j, k = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        ax, ay, az = points[i, 0] - px, points[i, 1] - py, points[i, 2] - pz
+        bx, by, bz = points[j, 0] - px, points[j, 1] - py, points[j, 2] - pz
+        cx, cy, cz = points[k, 0] - px, points[k, 1] - py, points[k, 2] - pz
+        la = np.sqrt(ax * ax + ay * ay + az * az)
+        lb = np.sqrt(bx * bx + by * by + bz * bz)
+        lc = np.sqrt(cx * cx + cy * cy + cz * cz)
+        det = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+        div = la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la + (cx * ax + cy * ay + cz * az) * lb
         total += 2.0 * np.arctan2(det, div)
     return total / (4.0 * np.pi)
 
