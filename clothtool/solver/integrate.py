@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.solver.framefn import FusedCall, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.integrate import integrate_affine, integrate_linear
 from clothtool.solver.stage import Stage
@@ -15,6 +16,7 @@ class IntegrateStage(Stage):
     def begin_frame(self, plan: FramePlan) -> None:
         self.real = self.solver.state.cur.dtype.type  # float32, or float64 for references
         self.gravity_bias = (self.solver.gravity * plan.h * plan.h).astype(self.real)
+        self.scales = stacked(self.solver.frame_scales, self.real)  # per iteration, for integrate_linear
 
     def warm_up(self) -> None:
         state = self.solver.state
@@ -27,8 +29,23 @@ class IntegrateStage(Stage):
 
     def run(self, iteration: Iteration) -> None:
         state = self.solver.state
-        if iteration.terms is None:
-            integrate_linear(self.real(iteration.scale), self.gravity_bias, state.cur, state.prev)
+        terms = self.solver.frame_terms
+        if terms is None:
+            integrate_linear(self.scales[iteration.index], self.gravity_bias, state.cur, state.prev)
         else:
-            terms = iteration.terms
-            integrate_affine(terms.m_cur, terms.m_prev, terms.bias, state.cur, state.prev)
+            i = iteration.index
+            integrate_affine(terms.m_cur[i], terms.m_prev[i], terms.bias[i], state.cur, state.prev)
+
+    def fused_call(self) -> FusedCall:
+        terms = self.solver.frame_terms
+        if terms is None:
+            return FusedCall(
+                ("{integrate}({scales}[it], {gravity_bias}, cur, prev)",),
+                {"scales": self.scales, "gravity_bias": self.gravity_bias},
+                {"integrate": integrate_linear},
+            )
+        return FusedCall(
+            ("{integrate}({m_cur}[it], {m_prev}[it], {bias}[it], cur, prev)",),
+            {"m_cur": terms.m_cur, "m_prev": terms.m_prev, "bias": terms.bias},
+            {"integrate": integrate_affine},
+        )
