@@ -313,6 +313,8 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
         for solver, meter in zip(solvers, meters):
             solver.warm_up()
             meter.warm_up(options.percentiles)
+    if scene.colliders is not None:  # the colliders at every frame's time, sampled at once
+        scene.colliders.prefetch([scene.frame_time(f) for f in range(scene.start_frame - scene.preroll, scene.end_frame + 1)])
     # Cloths that do not collide with each other need not interleave: each runs its frame
     # in one compiled call, unless every stage is to be timed (the same bits either way).
     whole_frames = not options.profile_stages and not (scene.solver.cloth_collision and len(solvers) > 1)
@@ -342,8 +344,12 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     try:
         with writer:
             writer.write_header(header)
+            discards = getattr(writer, "discards_frames", False)  # see CacheWriter
             with profiler.stage("write"):
-                writer.write_frame(_with_colliders(scene, _initial_frame(scene, solvers, attributes)))
+                if discards:
+                    writer.skip_frame(scene.start_frame)
+                else:
+                    writer.write_frame(_with_colliders(scene, _initial_frame(scene, solvers, attributes)))
             if options.progress:
                 options.progress(1, total)
             for done, frame in enumerate(range(scene.start_frame + 1, scene.end_frame + 1), start=2):
@@ -362,7 +368,10 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                     for solver in solvers:
                         _check_stable(scene, frame, solver, per_cloth[solver.model.name])
                 with profiler.stage("write"):
-                    writer.write_frame(_with_colliders(scene, _frame_data(frame, solvers, plans, per_cloth, attributes)))
+                    if discards:
+                        writer.skip_frame(frame)
+                    else:
+                        writer.write_frame(_with_colliders(scene, _frame_data(frame, solvers, plans, per_cloth, attributes)))
                 if options.progress:
                     options.progress(done, total)
             writer.commit()

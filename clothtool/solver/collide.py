@@ -18,6 +18,9 @@ mesh sides are decided. Nothing here allocates per iteration: arrays are sized i
 
 from __future__ import annotations
 
+import functools
+import re
+
 import numba
 import numpy as np
 
@@ -62,6 +65,12 @@ def _at_least(array: np.ndarray, size: int) -> np.ndarray:
     if array.shape[0] >= size:
         return array
     return np.zeros(max(size, 2 * array.shape[0]), array.dtype)
+
+
+@functools.lru_cache(maxsize=64)
+def _names_in(lines: tuple[str, ...]) -> frozenset[str]:
+    """The ``{name}`` placeholders of a frame function's lines."""
+    return frozenset(re.findall(r"\{(\w+)\}", "\n".join(lines)))
 
 
 class CollideStage(Stage):
@@ -375,9 +384,7 @@ class CollideStage(Stage):
             "mass_scale": self.mass_scale, "meters_per_unit": self.meters_per_unit, "virtual": self.virtual,
             "virtual_weights": self.virtual_weights,
         }
-        used = set()
-        for line in lines:
-            used.update(name for name in args if "{" + name + "}" in line)
+        used = _names_in(tuple(lines))
         kernels = {
             "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
             "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
@@ -386,7 +393,7 @@ class CollideStage(Stage):
         return FusedCall(
             tuple(lines),
             {name: value for name, value in args.items() if name in used},
-            {name: k for name, k in kernels.items() if any("{" + name + "}" in line for line in lines)},
+            {name: k for name, k in kernels.items() if name in used},
         )
 
     def end_fused_frame(self) -> None:

@@ -127,6 +127,8 @@ def compile_frame(source: str):
     if path is not None:
         spec = importlib.util.spec_from_file_location(f"clothtool_generated_frame_{digest}", path)
         module = importlib.util.module_from_spec(spec)
+        # numba's cached entries re-import the function's module by name when they load
+        sys.modules[spec.name] = module
         spec.loader.exec_module(module)
         namespace = vars(module)
     else:
@@ -143,14 +145,19 @@ class FusedFrame:
     def __init__(self) -> None:
         self.source = ""
         self.function = None
+        self._shapes: dict[tuple, tuple[str, object]] = {}  # the calls' lines and kernels -> (source, function)
 
     def prepare(self, stages) -> tuple[object, list, bool]:
         """(function, argument values, True when the function is new in this solver)."""
-        source, values = frame_source([stage.fused_call() for stage in stages])
-        new = source != self.source
-        if new:
-            self.source = source
-            self.function = compile_frame(source)
+        calls = [stage.fused_call() for stage in stages]
+        shape = tuple((call.lines, tuple(call.args), tuple(map(id, call.kernels.values()))) for call in calls)
+        known = self._shapes.get(shape)
+        if known is None:
+            source, _ = frame_source(calls)
+            known = self._shapes[shape] = (source, compile_frame(source))
+        values = [value for call in calls for value in call.args.values()]
+        new = known[0] != self.source
+        self.source, self.function = known
         return self.function, values, new
 
 
