@@ -71,7 +71,10 @@ class SleepState:
 def _differs(a, b) -> bool:
     if dataclasses.is_dataclass(a):
         return any(_differs(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
-    return not np.array_equal(np.asarray(a), np.asarray(b))
+    a, b = np.asarray(a), np.asarray(b)
+    # NaN stands for "not given" in collider arrays (friction): equal to itself here, or a
+    # scene with such a collider would count as moving every frame and never sleep
+    return not np.array_equal(a, b, equal_nan=a.dtype.kind in "fc" and b.dtype.kind in "fc")
 
 
 def _collider_sampler(environment):
