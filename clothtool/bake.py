@@ -353,7 +353,8 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
             if options.progress:
                 options.progress(1, total)
             for done, frame in enumerate(range(scene.start_frame + 1, scene.end_frame + 1), start=2):
-                plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
+                with profiler.stage("plan"):  # frame terms, collider and attachment poses (Python)
+                    plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
                 stats.iterations_per_frame = max(p.iterations for p in plans)
                 simulate_frame(solvers, plans, whole_frames)
                 with profiler.stage("stats"):
