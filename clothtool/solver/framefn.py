@@ -29,6 +29,7 @@ import dataclasses
 import hashlib
 import importlib.util
 import os
+import pickle
 import sys
 import tempfile
 from pathlib import Path
@@ -67,9 +68,25 @@ def _import_lines(alias: str, dispatcher) -> list[str]:
     raise LookupError(f"kernel {dispatcher.py_func.__qualname__} is not an attribute of {module_name}")
 
 
+def _unlinked_calls(line: str, aliases: list[str]) -> str:
+    """``alias(a, b)`` -> ``call_kernel(alias, (a, b,))`` for each kernel alias in ``line``."""
+    for alias in aliases:
+        start = line.find(alias + "(")
+        while start >= 0:
+            open_at = start + len(alias)
+            depth, end = 0, open_at
+            for end in range(open_at, len(line)):
+                depth += {"(": 1, ")": -1}.get(line[end], 0)
+                if depth == 0:
+                    break
+            line = f"{line[:start]}call_kernel({alias}, ({line[open_at + 1:end]},)){line[end + 1:]}"
+            start = line.find(alias + "(", start + len("call_kernel("))
+    return line
+
+
 def frame_source(calls: list[FusedCall]) -> tuple[str, list]:
     """(module source, argument values in the order of the frame function's parameters)."""
-    imports, made = ["from clothtool._jit import kernel"], []
+    imports, made = ["from clothtool._jit import kernel", "from clothtool.solver.framecall import call_kernel"], []
     parameters, values, body = [], [], []
     for index, call in enumerate(calls):
         names = {}
@@ -84,7 +101,8 @@ def frame_source(calls: list[FusedCall]) -> tuple[str, list]:
             imports.append(lines[0])
             made += lines[1:]
         body.append(f"        # stage {index}")
-        body += [f"        {line.format(**names)}" for line in call.lines]
+        aliases = [names[name] for name in call.kernels]
+        body += [f"        {_unlinked_calls(line.format(**names), aliases)}" for line in call.lines]
     signature = ", ".join(["iterations", "cur", "prev"] + parameters)
     source = "\n".join(
         ['"""A frame function written by clothtool.solver.framefn."""', *sorted(set(imports)), *made, "", "",
@@ -161,11 +179,61 @@ class FusedFrame:
         return self.function, values, new
 
 
-def compile_for(function, arguments: tuple) -> None:
-    """Compile ``function`` for the types of ``arguments`` without running it."""
-    import numba
+def _callees_path(function) -> Path | None:
+    """The file beside a generated module that records its callees' signatures."""
+    source_file = function.py_func.__code__.co_filename
+    return Path(source_file).with_suffix(".callees.pkl") if os.path.exists(source_file) else None
 
-    function.compile(tuple(numba.typeof(value) for value in arguments))
+
+def _read_callees(path: Path | None) -> dict:
+    try:
+        with open(path, "rb") as stream:
+            return pickle.load(stream)
+    except (OSError, TypeError, pickle.PickleError, EOFError, AttributeError, ImportError):
+        return {}
+
+
+def compile_for(function, arguments: tuple) -> None:
+    """Compile (or load from the cache) ``function`` for the types of ``arguments`` without
+    running it. Its kernels are called unlinked (clothtool.solver.framecall), so a cached
+    entry may only load once its callees are: the signatures they were compiled for are
+    recorded beside the module and loaded first; without that record the function is
+    compiled afresh (which compiles its callees) and then saved with it."""
+    import numba
+    from numba.core.caching import NullCache
+
+    from clothtool.solver.framecall import TYPED_CALLS
+
+    types = tuple(numba.typeof(value) for value in arguments)
+    if types in function.overloads:
+        return
+    path = _callees_path(function)
+    known = _read_callees(path) if path is not None else {}
+    namespace = function.py_func.__globals__
+    if repr(types) in known:
+        for alias, callee_types in known[repr(types)]:
+            namespace[alias].compile(callee_types)
+        function.compile(types)
+        return
+    cache = function._cache
+    function._cache = NullCache()
+    TYPED_CALLS.clear()
+    try:
+        function.compile(types)
+    finally:
+        function._cache = cache
+    if path is None:
+        return
+    aliases = {id(value): name for name, value in namespace.items() if name.startswith("k")}
+    known[repr(types)] = sorted({(aliases[id(dispatcher)], args) for dispatcher, args in TYPED_CALLS}, key=repr)
+    try:
+        handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(handle, "wb") as stream:
+            pickle.dump(known, stream)
+        os.replace(temporary, path)
+    except OSError:
+        return
+    cache.save_overload(types, function.overloads[types])
 
 
 def stacked(values, dtype) -> np.ndarray:
