@@ -27,7 +27,7 @@ import numpy as np
 from clothtool.errors import SceneError
 from clothtool.solver.colliders import ColliderArrays, friction_or
 from clothtool.solver.facepoints import face_points
-from clothtool.solver.framefn import FusedCall, stacked
+from clothtool.solver.framefn import FusedCall, copy_lines, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.collide import (
     collide_particles,
@@ -344,9 +344,9 @@ class CollideStage(Stage):
         if has_mesh:
             lines += ["    if {pose_mesh}[it]:",
                       "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha0}[it], 0, {mesh_start})"]
-        lines += ["else:", "    {sphere_start}[:] = {sphere_end}"]
+        lines += ["else:", *("    " + line for line in copy_lines("{sphere_end}", "{sphere_start}"))]
         if has_mesh:
-            lines += ["    if {pose_mesh}[it]:", "        {mesh_start}[:] = {mesh_end}"]
+            lines += ["    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
         lines.append("{pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha1}[it], 1, {sphere_end})")
         if self.plane_end.shape[0]:
             lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[it], {alpha1}[it], 1, {plane_end})")

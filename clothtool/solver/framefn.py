@@ -68,6 +68,17 @@ def _import_lines(alias: str, dispatcher) -> list[str]:
     raise LookupError(f"kernel {dispatcher.py_func.__qualname__} is not an attribute of {module_name}")
 
 
+def copy_lines(source: str, target: str, columns: str = "{target}.shape[1]") -> tuple[str, ...]:
+    """Lines copying 2-d ``source`` into ``target`` row by row (``columns`` of each): loops,
+    not a slice assignment, which would compile numba's shape-mismatch message (seconds)."""
+    columns = columns.format(target=target)
+    return (
+        f"for row in range({target}.shape[0]):",
+        f"    for column in range({columns}):",
+        f"        {target}[row, column] = {source}[row, column]",
+    )
+
+
 def _unlinked_calls(line: str, aliases: list[str]) -> str:
     """``alias(a, b)`` -> ``call_kernel(alias, (a, b,))`` for each kernel alias in ``line``."""
     for alias in aliases:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.framefn import FusedCall
+from clothtool.solver.framefn import FusedCall, copy_lines
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.selfcollide import build_grid, collide_points, collide_points_parallel, transform_points
 from clothtool.solver.logstiffness import iteration_stiffness
@@ -136,7 +136,7 @@ class SelfCollideStage(Stage):
     def fused_call(self) -> FusedCall:
         # gather() without neighbours: the snapshot is a copy of the cloth's own particles
         return FusedCall(
-            ("{points}[:] = cur",
+            (*copy_lines("cur", "{points}"),
              "{build_grid}({points}, {inv_cell}, {bucket_start}, {order}, {sorted_points}, {sorted_cell})",
              "{collide}({sorted_points}, {sorted_cell}, {bucket_start}, {order}, {rest_pos}, {point_segment}, "
              "{segment_distance}, {inv_cell}, {stiffness}, cur)"),

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from clothtool.solver.framefn import FusedCall
+from clothtool.solver.framefn import FusedCall, copy_lines
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.sleep import max_displacement
 from clothtool.solver.stage import Stage
@@ -169,7 +169,7 @@ class SleepStage(Stage):
         "        {counters}[2] = 1.0",
         "    if {counters}[1] >= {after_count}:",
         "        {counters}[3] = 1.0",
-        "        prev[:, :3] = cur[:, :3]",
+        *("        " + line for line in copy_lines("cur", "prev", "3")),
         "        return it + 1",
     )
 
