@@ -19,7 +19,6 @@ from clothtool.solver.model import ClothModel
 from clothtool.solver.pipeline import build_stages
 from clothtool.solver.sleep import SleepState
 
-
 FRAME_STAGE = "frame"  # the profile's name for a frame's iterations run in one compiled call
 
 

@@ -137,40 +137,6 @@ class FrameHistory:
         self.before = before
         self.now = now
 
-    def advance(
-        self,
-        target: Pose,
-        scale: float,
-        gravity: np.ndarray,
-        h: float,
-        inertia: FrameInertia,
-        stiffness_frequency: float,
-        dtype=np.float32,
-    ) -> IterationTerms:
-        """Terms for the iteration that ends at ``target``, in the particle state's ``dtype``;
-        then shift the history."""
-        r_prev, r_now, r_next = self.before.rotation, self.now.rotation, target.rotation
-        t_prev, t_now, t_next = self.before.translation, self.now.translation, target.translation
-        inv = r_next.T
-        d_lin = 1.0 - damping_scale(inertia.linear_drag, stiffness_frequency, h)
-        d_ang = 1.0 - damping_scale(inertia.angular_drag, stiffness_frequency, h)
-        i_lin, i_ang = inertia.linear_inertia, inertia.angular_inertia
-        q = i_ang * (inv @ r_prev) + (1.0 - i_ang) * IDENTITY
-        d_n, d_n1 = r_now - r_prev, r_next - r_now
-        dt_n, dt_n1 = t_now - t_prev, t_next - t_now
-        k = inv @ (i_ang * (d_n - d_n1) - d_ang * d_n1)
-        b = inv @ (i_lin * (dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)
-        terms = IterationTerms(
-            m_cur=(scale * q + k).astype(dtype),
-            m_prev=(-scale * q).astype(dtype),
-            bias=b.astype(dtype),
-            motion_matrix=(inv @ d_n1).astype(np.float32),
-            motion_offset=(inv @ dt_n1).astype(np.float32),
-            to_local=inv,
-        )
-        self.before, self.now = self.now, target
-        return terms
-
     def advance_many(
         self,
         targets: list[Pose],
@@ -181,9 +147,9 @@ class FrameHistory:
         stiffness_frequency: float,
         dtype=np.float32,
     ) -> "FrameTerms":
-        """``advance`` for a whole frame at once: the terms of the iterations ending at each
-        of ``targets`` (velocity scales ``scales``), as (k,3,3) and (k,3) stacks computed
-        together. The history is left as it is: ``poses`` says where it stands at each
+        """The terms (module docstring) of the iterations ending at each of ``targets``
+        (velocity scales ``scales``), for a whole frame at once: (k,3,3) and (k,3) stacks
+        computed together, in the particle state's ``dtype``. The history is left as it is: ``poses`` says where it stands at each
         iteration."""
         rotations = np.stack([self.before.rotation, self.now.rotation] + [t.rotation for t in targets])
         translations = np.stack([self.before.translation, self.now.translation] + [t.translation for t in targets])

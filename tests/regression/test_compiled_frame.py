@@ -14,7 +14,6 @@ from clothtool.io.fabric_file import write_fabric
 from clothtool.io.memory import MemoryCacheWriter
 from clothtool.mesh.shapes import grid
 from clothtool.scene.scene import load_scene
-
 from tests.conftest import EXAMPLES
 
 # A sheet dropped onto a sphere, a mesh bump, a box and the floor; a capsule passes above it on
