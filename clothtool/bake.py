@@ -40,7 +40,10 @@ class BakeOptions:
         for a 128^2 sheet on a sphere, so benchmarks and library bakes leave it off);
     compression / save_every: override the scene's output settings when given;
     progress: called as progress(frames_done, frames_total) after each frame;
-    metadata: extra string metadata for the cache header (e.g. a wedge's settings)."""
+    metadata: extra string metadata for the cache header (e.g. a wedge's settings);
+    profile_stages: time every solver stage (``--profile``): the position-based solver then
+        runs its stages one by one from Python instead of a frame at a time in compiled code
+        (the same bits, slower)."""
 
     percentiles: bool = False
     penetration: bool = False
@@ -48,6 +51,7 @@ class BakeOptions:
     save_every: int | None = None
     progress: Callable[[int, int], None] | None = None
     metadata: tuple[tuple[str, str], ...] = ()
+    profile_stages: bool = False
 
 
 @dataclasses.dataclass
@@ -309,7 +313,12 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
         for solver, meter in zip(solvers, meters):
             solver.warm_up()
             meter.warm_up(options.percentiles)
-    preroll(scene, solvers)
+    if scene.colliders is not None:  # the colliders at every frame's time, sampled at once
+        scene.colliders.prefetch([scene.frame_time(f) for f in range(scene.start_frame - scene.preroll, scene.end_frame + 1)])
+    # Cloths that do not collide with each other need not interleave: each runs its frame
+    # in one compiled call, unless every stage is to be timed (the same bits either way).
+    whole_frames = not options.profile_stages and not (scene.solver.cloth_collision and len(solvers) > 1)
+    preroll(scene, solvers, whole_frames)
 
     attributes = scene.output.attributes
     cache_options = CacheOptions(
@@ -335,17 +344,19 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     try:
         with writer:
             writer.write_header(header)
+            discards = getattr(writer, "discards_frames", False)  # see CacheWriter
             with profiler.stage("write"):
-                writer.write_frame(_with_colliders(scene, _initial_frame(scene, solvers, attributes)))
+                if discards:
+                    writer.skip_frame(scene.start_frame)
+                else:
+                    writer.write_frame(_with_colliders(scene, _initial_frame(scene, solvers, attributes)))
             if options.progress:
                 options.progress(1, total)
             for done, frame in enumerate(range(scene.start_frame + 1, scene.end_frame + 1), start=2):
-                plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
+                with profiler.stage("plan"):  # frame terms, collider and attachment poses (Python)
+                    plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
                 stats.iterations_per_frame = max(p.iterations for p in plans)
-                for index in range(stats.iterations_per_frame):
-                    for solver, plan in zip(solvers, plans):
-                        if index < plan.iterations:
-                            solver.iterate(solver.iteration(plan, index))
+                simulate_frame(solvers, plans, whole_frames)
                 with profiler.stage("stats"):
                     per_cloth = {}
                     for solver, meter, plan in zip(solvers, meters, plans):
@@ -358,7 +369,10 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                     for solver in solvers:
                         _check_stable(scene, frame, solver, per_cloth[solver.model.name])
                 with profiler.stage("write"):
-                    writer.write_frame(_with_colliders(scene, _frame_data(frame, solvers, plans, per_cloth, attributes)))
+                    if discards:
+                        writer.skip_frame(frame)
+                    else:
+                        writer.write_frame(_with_colliders(scene, _frame_data(frame, solvers, plans, per_cloth, attributes)))
                 if options.progress:
                     options.progress(done, total)
             writer.commit()
@@ -379,16 +393,27 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     return stats
 
 
-def preroll(scene: Scene, solvers: list[Integrator]) -> None:
+def simulate_frame(solvers: list[Integrator], plans: list, whole_frames: bool) -> None:
+    """Run the planned frame of every cloth: with ``whole_frames`` each cloth's iterations in
+    one call where its integrator can (``run_frame``), the rest interleaved iteration by
+    iteration (so that cloths see each other's current state)."""
+    if whole_frames:
+        pending = [(s, p) for s, p in zip(solvers, plans) if not s.run_frame(p)]
+    else:
+        pending = list(zip(solvers, plans))
+    for index in range(max((p.iterations for _, p in pending), default=0)):
+        for solver, plan in pending:
+            if index < plan.iterations:
+                solver.iterate(solver.iteration(plan, index))
+
+
+def preroll(scene: Scene, solvers: list[Integrator], whole_frames: bool = False) -> None:
     """Simulate ``scene.preroll`` frames before the start frame (not written): the bodies
     blend from their rest pose to the first frame's, and the cloths settle on them."""
     frame_dt = 1.0 / scene.fps
     for frame in range(scene.start_frame - scene.preroll + 1, scene.start_frame + 1):
         plans = [s.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame)) for s in solvers]
-        for index in range(max(p.iterations for p in plans)):
-            for solver, frame_plan in zip(solvers, plans):
-                if index < frame_plan.iterations:
-                    solver.iterate(solver.iteration(frame_plan, index))
+        simulate_frame(solvers, plans, whole_frames)
 
 
 def _finish(stats: BakeStats, profiler: StageProfiler, wall0: float, cpu0: float) -> None:

@@ -117,7 +117,7 @@ def bake(scenes, output, dry_run, overrides, frames, profile, report_path, as_js
                 show(done, total)
 
         try:
-            stats = run_bake(loaded, cache_output(loaded, output, standalone, save_every), BakeOptions(percentiles=True, penetration=True, compression=compression, save_every=save_every, progress=update))
+            stats = run_bake(loaded, cache_output(loaded, output, standalone, save_every), BakeOptions(percentiles=True, penetration=True, compression=compression, save_every=save_every, progress=update, profile_stages=profile))
         except UnstableError as exc:
             if getattr(exc, "stats", None) is None:  # refused before the first frame
                 raise

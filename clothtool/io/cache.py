@@ -131,6 +131,9 @@ class FrameData:
 
 
 class CacheWriter(Protocol):
+    """A writer may also set ``discards_frames = True`` and have ``skip_frame(frame)``: the
+    bake then calls that instead of building each frame's data (clothtool.io.null)."""
+
     path: Path
 
     def __enter__(self) -> "CacheWriter": ...

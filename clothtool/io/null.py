@@ -29,7 +29,14 @@ class NullCacheWriter:
     def write_header(self, header: CacheHeader) -> None:
         self.header = header
 
+    # The bake builds no frame for a writer that discards frames (world points, velocities,
+    # collider transforms): it calls skip_frame instead of write_frame.
+    discards_frames = True
+
     def write_frame(self, frame: FrameData) -> None:
+        self.skip_frame(frame.frame)
+
+    def skip_frame(self, frame: int) -> None:
         if self.header is None:
             raise ClothtoolError(f"{self.path}: write_frame called before write_header")
         self.frames_written += 1

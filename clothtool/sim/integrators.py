@@ -46,6 +46,10 @@ class Integrator(Protocol):
 
     def iterate(self, iteration: "Iteration") -> None: ...
 
+    def run_frame(self, plan: "FramePlan") -> bool:
+        """Run all iterations of the planned frame at once and return True, or return False
+        (doing nothing) when the integrator runs its frames through iteration/iterate."""
+
     def step(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> "FramePlan": ...
 
     def frame_stats(self) -> dict:

@@ -17,6 +17,7 @@ import dataclasses
 import numpy as np
 
 from clothtool.errors import SceneError
+from clothtool.solver.framefn import FusedCall, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.attach import attach_particles
 from clothtool.solver.stage import Stage
@@ -128,6 +129,7 @@ class AttachStage(Stage):
         attachment = self.solver.attachment
         self.start[:] = attachment.positions(colliders(plan.time).mesh_points)
         self.end[:] = attachment.positions(colliders(plan.end).mesh_points)
+        self.alpha1 = stacked([(i + 1) / plan.iterations for i in range(plan.iterations)], self.alpha_type)
 
     def warm_up(self) -> None:
         none = self.start[:0]
@@ -135,5 +137,13 @@ class AttachStage(Stage):
                          self.solver.motion_centers[:0], self.solver.state.cur[:0])
 
     def run(self, iteration: Iteration) -> None:
-        attach_particles(self.particle, self.pinned, self.start, self.end, self.alpha_type(iteration.alpha1),
+        attach_particles(self.particle, self.pinned, self.start, self.end, self.alpha1[iteration.index],
                          self.solver.motion_centers, self.solver.state.cur)
+
+    def fused_call(self) -> FusedCall:
+        return FusedCall(
+            ("{attach}({particle}, {pinned}, {start}, {end}, {alpha1}[it], {centers}, cur)",),
+            {"particle": self.particle, "pinned": self.pinned, "start": self.start, "end": self.end, "alpha1": self.alpha1,
+             "centers": self.solver.motion_centers},
+            {"attach": attach_particles},
+        )

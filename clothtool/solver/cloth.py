@@ -7,16 +7,19 @@ from typing import Callable
 
 import numpy as np
 
-from clothtool.profile import StageProfiler
+from clothtool.profile import JIT_STAGE, StageProfiler
 from clothtool.settings import SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.frame import FrameHistory, FrameInertia, FramePath, Pose, extrapolated_path
+from clothtool.solver.frame import FrameHistory, FrameInertia, FramePath, FrameTerms, Pose, extrapolated_path
+from clothtool.solver.framefn import FusedFrame, compile_for
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
 from clothtool.solver.logstiffness import damping_scale
 from clothtool.solver.model import ClothModel
 from clothtool.solver.pipeline import build_stages
 from clothtool.solver.sleep import SleepState
+
+FRAME_STAGE = "frame"  # the profile's name for a frame's iterations run in one compiled call
 
 
 @dataclasses.dataclass
@@ -70,7 +73,9 @@ class ClothSolver:
         self.profiler = profiler
         # a plain time -> Pose callable is sampled one time at a time
         self.track = track if track is None or isinstance(track, FramePath) else FramePath(track)
-        self._targets: list[Pose] = []  # the frame's pose at each iteration's end
+        self.frame_scales = np.ones(1)  # this frame's velocity scale per iteration (plan_frame)
+        self.frame_ratios = np.ones(1)  # ... and its time-step ratio h / h_prev alone
+        self.frame_terms: FrameTerms | None = None  # this frame's motion terms per iteration, with a track
         self.teleport_frames = teleport_frames
         self.initial_velocity = np.asarray(initial_velocity, np.float64)
         self.gravity = np.asarray(environment.gravity, np.float64)
@@ -87,6 +92,7 @@ class ClothSolver:
         self.sleep = SleepState()  # see clothtool.solver.sleep
         self.neighbours: list[ClothSolver] = []  # cloths whose particles this one collides with
         self.stages = build_stages(self)
+        self._fused = FusedFrame()
 
     def set_neighbours(self, neighbours) -> None:
         """The other cloths of the scene (cloth-cloth collision); rebuilds the stage list, so
@@ -114,9 +120,15 @@ class ClothSolver:
             self._start(plan)
         elif self.history is not None and frame in self.teleport_frames:
             self._teleport(plan)
+        self.frame_scales = self._scales(plan)
+        self.frame_terms = None
         if self.track is not None:
             ends = [plan.iteration_end(index) for index in range(plan.iterations)]
-            self._targets = [self._teleport_path(t) for t in ends] if self._teleport_path else self.track.poses(ends)
+            targets = [self._teleport_path(t) for t in ends] if self._teleport_path else self.track.poses(ends)
+            self.frame_terms = self.history.advance_many(
+                targets, self.frame_scales, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
+                self.state.cur.dtype,
+            )
         self.sleep.begin_frame(self, plan)
         for stage in self.stages:
             stage.begin_frame(plan)
@@ -150,17 +162,46 @@ class ClothSolver:
         self.state.prev[free, :3] = self.state.cur[free, :3] + offset
         self.prev_h = h
 
+    def _scales(self, plan: FramePlan) -> np.ndarray:
+        """f64 (iterations,) velocity scale of each iteration: damping over h, and the first
+        iteration also h / h_prev (the time step's change)."""
+        scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, plan.h)
+        self.frame_ratios = np.ones(plan.iterations)
+        self.frame_ratios[0] = plan.h / self.prev_h
+        return scale * self.frame_ratios
+
     def iteration(self, plan: FramePlan, index: int) -> Iteration:
-        h = plan.h
-        ratio = h / self.prev_h if index == 0 else 1.0
-        self.prev_h = h
-        scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, h) * ratio
+        """Iteration ``index`` of the planned frame (its terms were computed by plan_frame);
+        the frame history moves to the iteration's poses."""
+        self.prev_h = plan.h
         terms = None
-        if self.history is not None:
-            terms = self.history.advance(
-                self._targets[index], scale, self.gravity, h, self.inertia, self.config.stiffness_frequency, self.state.cur.dtype
-            )
-        return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, scale, terms, ratio)
+        if self.frame_terms is not None:
+            terms = self.frame_terms.at(index)
+            self.history.before, self.history.now = self.frame_terms.poses[index], self.frame_terms.poses[index + 1]
+        return Iteration(index, index / plan.iterations, (index + 1) / plan.iterations, float(self.frame_scales[index]), terms)
+
+    def run_frame(self, plan: FramePlan) -> bool:
+        """All iterations of the planned frame in one compiled call (clothtool.solver.framefn):
+        the same kernels with the same arguments as ``iterate`` stage by stage, so the same
+        bits, without Python between iterations. True: done (integrators that cannot run a
+        frame at once return False and the runner calls iteration/iterate instead)."""
+        if any(not stage.fused for stage in self.stages):
+            return False
+        self.prev_h = plan.h
+        if self.frame_terms is not None:
+            self.history.before, self.history.now = self.frame_terms.poses[-2:]
+        if self.sleep.asleep:
+            return True
+        function, values, new = self._fused.prepare(self.stages)
+        arguments = (plan.iterations, self.state.cur, self.state.prev, *values)
+        if new:  # compiled (or loaded from the cache) apart from the frame's time
+            with self.profiler.stage(JIT_STAGE):
+                compile_for(function, arguments)
+        with self.profiler.stage(FRAME_STAGE):
+            function(*arguments)
+        for stage in self.stages:
+            stage.end_fused_frame()
+        return True
 
     def warm_up(self) -> None:
         """Compile (or load from numba's cache) every kernel this cloth's stages use."""

@@ -20,12 +20,16 @@ mesh sides are decided. Nothing here allocates per iteration: arrays are sized i
 
 from __future__ import annotations
 
+import functools
+import re
+
 import numba
 import numpy as np
 
 from clothtool.errors import SceneError
 from clothtool.solver.colliders import ColliderArrays, friction_or
 from clothtool.solver.facepoints import face_points
+from clothtool.solver.framefn import FusedCall, copy_lines, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.meshfaces import collider_owners, sample_spacing
 from clothtool.solver.kernels.collide import (
@@ -65,6 +69,12 @@ def _at_least(array: np.ndarray, size: int) -> np.ndarray:
     if array.shape[0] >= size:
         return array
     return np.zeros(max(size, 2 * array.shape[0]), array.dtype)
+
+
+@functools.lru_cache(maxsize=64)
+def _names_in(lines: tuple[str, ...]) -> frozenset[str]:
+    """The ``{name}`` placeholders of a frame function's lines."""
+    return frozenset(re.findall(r"\{(\w+)\}", "\n".join(lines)))
 
 
 class CollideStage(Stage):
@@ -142,9 +152,11 @@ class CollideStage(Stage):
         self.cell_items = np.zeros(1, I32)
         self.mesh_still = False
         self._mesh_packed = False
-        self._frame_serial = 0
-        self._end_key: tuple | None = None
-        self._end_pose = None
+        # per iteration of the frame (begin_frame): the cloth frame's poses at its start and
+        # end (k,8,3), the collider interpolation's alphas, and whether the mesh is posed
+        self.frames = np.zeros((1, 8, 3))
+        self.alpha0 = self.alpha1 = self.alpha_step = np.zeros(1)
+        self.pose_mesh = np.zeros(1, np.bool_)
 
     # ------------------------------------------------------------------ per frame
     def begin_frame(self, plan: FramePlan) -> None:
@@ -158,8 +170,31 @@ class CollideStage(Stage):
         self.kernel = self._kernel_for(start)
         if self.face_collision and not self._faces_sized:
             self._add_face_points(start)
-        self._frame_serial += 1
-        self._end_key = None
+        self._iteration_arrays(plan)
+
+    def _iteration_arrays(self, plan: FramePlan) -> None:
+        """The per-iteration values ``pose`` (and the compiled frame function) index."""
+        k = plan.iterations
+        self.alpha0 = stacked([index / k for index in range(k)], np.float64)
+        self.alpha1 = stacked([(index + 1) / k for index in range(k)], np.float64)
+        self.alpha_step = self.alpha1 - self.alpha0
+        frames = np.zeros((k, 8, 3))
+        frames[:, 0:3] = frames[:, 4:7] = np.eye(3)
+        terms = self.solver.frame_terms
+        if terms is not None:
+            poses = terms.poses
+            frames[:, 0:3] = [p.rotation for p in poses[:-1]]
+            frames[:, 3] = [p.translation for p in poses[:-1]]
+            frames[:, 4:7] = [p.rotation for p in poses[1:]]
+            frames[:, 7] = [p.translation for p in poses[1:]]
+        self.frames = frames
+        # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
+        self.pose_mesh = np.zeros(k, np.bool_)
+        if self.mesh_world[0].shape[0]:
+            if not self.mesh_still:
+                self.pose_mesh[:] = True
+            else:
+                self.pose_mesh[0] = not self._mesh_packed
 
     def _kernel_for(self, colliders: ColliderArrays):
         """The particle kernel compiled for the collider kinds present (mesh, convex) and the
@@ -288,41 +323,97 @@ class CollideStage(Stage):
     # ------------------------------------------------------------------ per iteration
     def pose(self, iteration: Iteration) -> None:
         """Pose the colliders for ``iteration``: start at alpha0 with the frame's pose at the
-        iteration's start, end at alpha1 with its pose at the end."""
-        history = self.solver.history
-        before = now = None
-        if history is not None:
-            before, now = history.before, history.now
-            self.frame[0:3] = before.rotation
-            self.frame[3] = before.translation
-            self.frame[4:7] = now.rotation
-            self.frame[7] = now.translation
-        alpha0, alpha1 = float(iteration.alpha0), float(iteration.alpha1)
-        frame = self.frame
-        # the last iteration's end is this one's start when neither the time nor the pose changed
-        continues = self._end_key == (self._frame_serial, alpha0) and before is self._end_pose
+        iteration's start, end at alpha1 with its pose at the end. ``fused_call`` is the same
+        in the compiled frame function's terms."""
+        i = iteration.index
+        frame = self.frame = self.frames[i]
+        alpha0, alpha1 = self.alpha0[i], self.alpha1[i]
         # kinds the scene lacks are skipped (zero-length arrays): their kernels never compile
-        pose_mesh = self.mesh_world[0].shape[0] > 0 and not (self.mesh_still and self._mesh_packed)
-        if continues:
-            self.sphere_start, self.sphere_end = self.sphere_end, self.sphere_start
-            if pose_mesh:
-                self.mesh_start, self.mesh_end = self.mesh_end, self.mesh_start
-        else:
+        pose_mesh = self.pose_mesh[i]
+        if i == 0:
             pose_spheres(*self.sphere_world, frame, alpha0, 0, self.sphere_start)
             if pose_mesh:
                 pose_points(*self.mesh_world, frame, alpha0, 0, self.mesh_start)
+        else:  # the last iteration's end is this one's start
+            np.copyto(self.sphere_start, self.sphere_end)
+            if pose_mesh:
+                np.copyto(self.mesh_start, self.mesh_end)
         pose_spheres(*self.sphere_world, frame, alpha1, 1, self.sphere_end)
         if self.plane_end.shape[0]:
             pose_planes(*self.plane_world, frame, alpha1, 1, self.plane_end)
-        self._end_key = (self._frame_serial, alpha1)
-        self._end_pose = now
         pack_spheres(self.sphere_start, self.sphere_end, self.sphere_colliders, self.sphere_params, self.sphere_data)
         pack_capsules(self.sphere_start, self.sphere_end, self.capsule_index, self.capsule_params, self.capsule_data)
         if self.convex_data.shape[0]:
-            convex_shift(self.convex_translation, frame, alpha1 - alpha0, self.convex_data)
+            convex_shift(self.convex_translation, frame, self.alpha_step[i], self.convex_data)
         if pose_mesh:
             pose_points(*self.mesh_world, frame, alpha1, 1, self.mesh_end)
             pack_triangles(self.mesh_start, self.mesh_end, self.triangles, self.triangle_params, self.triangle_data)
+            self._mesh_packed = self.mesh_still
+
+    def fused_call(self) -> FusedCall:
+        has_mesh = self.mesh_world[0].shape[0] > 0
+        lines = [
+            "if it == 0:",
+            "    {pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha0}[it], 0, {sphere_start})",
+        ]
+        if has_mesh:
+            lines += ["    if {pose_mesh}[it]:",
+                      "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha0}[it], 0, {mesh_start})"]
+        lines += ["else:", *("    " + line for line in copy_lines("{sphere_end}", "{sphere_start}"))]
+        if has_mesh:
+            lines += ["    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
+        lines.append("{pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha1}[it], 1, {sphere_end})")
+        if self.plane_end.shape[0]:
+            lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[it], {alpha1}[it], 1, {plane_end})")
+        lines += [
+            "{pack_spheres}({sphere_start}, {sphere_end}, {sphere_colliders}, {sphere_params}, {sphere_data})",
+            "{pack_capsules}({sphere_start}, {sphere_end}, {capsule_index}, {capsule_params}, {capsule_data})",
+        ]
+        if self.convex_data.shape[0]:
+            lines.append("{convex_shift}({convex_translation}, {frames}[it], {alpha_step}[it], {convex_data})")
+        if has_mesh:
+            lines += [
+                "if {pose_mesh}[it]:",
+                "    {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha1}[it], 1, {mesh_end})",
+                "    {pack_triangles}({mesh_start}, {mesh_end}, {triangles}, {triangle_params}, {triangle_data})",
+            ]
+        groups = ("({sphere_data}, {capsule_data}, {plane_end}, {convex_offsets}, {convex_data}), "
+                  "({triangle_data}, {cell_start}, {cell_items}, {cell_ranges}, {grid})")
+        lines.append("{collide}(" + groups + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+        if self.virtual.shape[0]:
+            lines.append("{collide_virtual}({virtual}, {virtual_weights}, " + groups
+                         + ", {frames}[it], prev, {mass_scale}, {meters_per_unit}, cur)")
+        args = {
+            "frames": self.frames, "alpha0": self.alpha0, "alpha1": self.alpha1, "alpha_step": self.alpha_step,
+            "pose_mesh": self.pose_mesh, "sphere_world0": self.sphere_world[0], "sphere_world1": self.sphere_world[1],
+            "sphere_start": self.sphere_start, "sphere_end": self.sphere_end, "mesh_world0": self.mesh_world[0],
+            "mesh_world1": self.mesh_world[1], "mesh_start": self.mesh_start, "mesh_end": self.mesh_end,
+            "plane_world0": self.plane_world[0], "plane_world1": self.plane_world[1], "plane_end": self.plane_end,
+            "sphere_colliders": self.sphere_colliders, "sphere_params": self.sphere_params,
+            "sphere_data": self.sphere_data, "capsule_index": self.capsule_index,
+            "capsule_params": self.capsule_params, "capsule_data": self.capsule_data,
+            "convex_translation": self.convex_translation, "convex_offsets": self.convex_offsets,
+            "convex_data": self.convex_data, "triangles": self.triangles, "triangle_params": self.triangle_params,
+            "triangle_data": self.triangle_data, "cell_start": self.cell_start, "cell_items": self.cell_items,
+            "cell_ranges": self.cell_ranges, "grid": self.grid, "continuous": self.continuous,
+            "mass_scale": self.mass_scale, "meters_per_unit": self.meters_per_unit, "virtual": self.virtual,
+            "virtual_weights": self.virtual_weights,
+        }
+        used = _names_in(tuple(lines))
+        kernels = {
+            "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
+            "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
+            "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": collide_virtual,
+        }
+        return FusedCall(
+            tuple(lines),
+            {name: value for name, value in args.items() if name in used},
+            {name: k for name, k in kernels.items() if name in used},
+        )
+
+    def end_fused_frame(self) -> None:
+        self.frame = self.frames[-1]
+        if self.pose_mesh[0]:
             self._mesh_packed = self.mesh_still
 
     def _groups(self, empty: bool = False) -> tuple[tuple, tuple]:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.solver.framefn import FusedCall
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.fabric import solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
 from clothtool.solver.logstiffness import iteration_multiplier, iteration_stiffness, limit_term
@@ -113,3 +114,20 @@ class FabricStage(Stage):
                 model.constraint_indices, model.constraint_rest_length, model.constraint_stiffness,
                 model.set_offsets, model.phase_set_offsets, self.params, self.solver.state.cur,
             )
+
+    def fused_call(self) -> FusedCall:
+        model = self.solver.model
+        if self.xpbd:
+            return FusedCall(
+                ("{fabric}({indices}, {rest_length}, {alpha_tilde}, {set_offsets}, cur)",),
+                {"indices": model.constraint_indices, "rest_length": model.constraint_rest_length,
+                 "alpha_tilde": self.alpha_tilde, "set_offsets": model.set_offsets},
+                {"fabric": self.kernel},
+            )
+        return FusedCall(
+            ("{fabric}({indices}, {rest_length}, {stiffness}, {set_offsets}, {phase_set_offsets}, {params}, cur)",),
+            {"indices": model.constraint_indices, "rest_length": model.constraint_rest_length,
+             "stiffness": model.constraint_stiffness, "set_offsets": model.set_offsets,
+             "phase_set_offsets": model.phase_set_offsets, "params": self.params},
+            {"fabric": self.kernel},
+        )

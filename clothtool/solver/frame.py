@@ -105,6 +105,26 @@ class IterationTerms:
     to_local: np.ndarray  # f64 (3,3): R_{n+1}^T, rotates world vectors into the frame
 
 
+@dataclasses.dataclass(frozen=True)
+class FrameTerms:
+    """IterationTerms of every iteration of a frame, stacked (first axis: the iteration), and
+    the frame's poses at the iterations' ends, preceded by its pose at the frame's start."""
+
+    m_cur: np.ndarray  # (k,3,3) in the state's precision
+    m_prev: np.ndarray
+    bias: np.ndarray  # (k,3)
+    motion_matrix: np.ndarray  # f32 (k,3,3)
+    motion_offset: np.ndarray  # f32 (k,3)
+    to_local: np.ndarray  # f64 (k,3,3)
+    poses: list[Pose]  # k + 1 poses
+
+    def at(self, index: int) -> IterationTerms:
+        return IterationTerms(
+            self.m_cur[index], self.m_prev[index], self.bias[index], self.motion_matrix[index], self.motion_offset[index],
+            self.to_local[index],
+        )
+
+
 class FrameHistory:
     """The poses at the ends of the last two iterations of one cloth's frame."""
 
@@ -117,21 +137,25 @@ class FrameHistory:
         self.before = before
         self.now = now
 
-    def advance(
+    def advance_many(
         self,
-        target: Pose,
-        scale: float,
+        targets: list[Pose],
+        scales: np.ndarray,
         gravity: np.ndarray,
         h: float,
         inertia: FrameInertia,
         stiffness_frequency: float,
         dtype=np.float32,
-    ) -> IterationTerms:
-        """Terms for the iteration that ends at ``target``, in the particle state's ``dtype``;
-        then shift the history."""
-        r_prev, r_now, r_next = self.before.rotation, self.now.rotation, target.rotation
-        t_prev, t_now, t_next = self.before.translation, self.now.translation, target.translation
-        inv = r_next.T
+    ) -> "FrameTerms":
+        """The terms (module docstring) of the iterations ending at each of ``targets``
+        (velocity scales ``scales``), for a whole frame at once: (k,3,3) and (k,3) stacks
+        computed together, in the particle state's ``dtype``. The history is left as it is: ``poses`` says where it stands at each
+        iteration."""
+        rotations = np.stack([self.before.rotation, self.now.rotation] + [t.rotation for t in targets])
+        translations = np.stack([self.before.translation, self.now.translation] + [t.translation for t in targets])
+        r_prev, r_now, r_next = rotations[:-2], rotations[1:-1], rotations[2:]
+        t_prev, t_now, t_next = translations[:-2], translations[1:-1], translations[2:]
+        inv = np.ascontiguousarray(r_next.transpose(0, 2, 1))
         d_lin = 1.0 - damping_scale(inertia.linear_drag, stiffness_frequency, h)
         d_ang = 1.0 - damping_scale(inertia.angular_drag, stiffness_frequency, h)
         i_lin, i_ang = inertia.linear_inertia, inertia.angular_inertia
@@ -139,16 +163,17 @@ class FrameHistory:
         d_n, d_n1 = r_now - r_prev, r_next - r_now
         dt_n, dt_n1 = t_now - t_prev, t_next - t_now
         k = inv @ (i_ang * (d_n - d_n1) - d_ang * d_n1)
-        b = inv @ (i_lin * (dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)
-        terms = IterationTerms(
-            m_cur=(scale * q + k).astype(dtype),
-            m_prev=(-scale * q).astype(dtype),
-            bias=b.astype(dtype),
-            motion_matrix=(inv @ d_n1).astype(np.float32),
-            motion_offset=(inv @ dt_n1).astype(np.float32),
+        b = (inv @ (i_lin * (dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)[:, :, None])[:, :, 0]
+        scale = np.asarray(scales, np.float64)[:, None, None]
+        terms = FrameTerms(
+            m_cur=np.ascontiguousarray(scale * q + k, dtype),
+            m_prev=np.ascontiguousarray(-scale * q, dtype),
+            bias=np.ascontiguousarray(b, dtype),
+            motion_matrix=np.ascontiguousarray(inv @ d_n1, np.float32),
+            motion_offset=np.ascontiguousarray((inv @ dt_n1[:, :, None])[:, :, 0], np.float32),
             to_local=inv,
+            poses=[self.now] + list(targets),
         )
-        self.before, self.now = self.now, target
         return terms
 
     @property

@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.solver.framefn import FusedCall, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
-from clothtool.solver.kernels.integrate import integrate_affine, integrate_linear, mean_displacement
+from clothtool.solver.kernels.integrate import integrate_affine, integrate_free, integrate_linear
 from clothtool.solver.stage import Stage
 
 
@@ -26,6 +27,10 @@ class IntegrateStage(Stage):
     def begin_frame(self, plan: FramePlan) -> None:
         self.real = self.solver.state.cur.dtype.type  # float32, or float64 for references
         self.gravity_bias = (self.solver.gravity * plan.h * plan.h).astype(self.real)
+        self.scales = stacked(self.solver.frame_scales, self.real)  # per iteration, for integrate_linear
+        # the damping's share of a free cloth's mean motion, r - scale per iteration, in float64
+        # (scale may be a float32, and r - scale rounded to float32 would leak ~1e-8 of the momentum)
+        self.spared = self.solver.frame_ratios - self.solver.frame_scales
         if not hasattr(self, "free"):  # what holds the cloth does not change during a bake
             self.free = self._free_cloth()
             self.mean = np.zeros(3, np.float64)
@@ -47,22 +52,41 @@ class IntegrateStage(Stage):
         real = state.cur.dtype.type
         if self.solver.track is None:  # run() integrates in a moving frame exactly when the cloth follows a track
             integrate_linear(real(1.0), np.zeros(3, real), state.cur[:0], state.prev[:0])
-            mean_displacement(state.cur[:0], state.prev[:0], np.zeros(3, np.float64))
+            if self._free_cloth():
+                integrate_free(real(1.0), 0.5, np.zeros(3, real), np.zeros(3, np.float64), state.cur[:0], state.prev[:0])
         else:
             eye = np.eye(3, dtype=real)
             integrate_affine(eye, eye, np.zeros(3, real), state.cur[:0], state.prev[:0])
 
     def run(self, iteration: Iteration) -> None:
         state = self.solver.state
-        if iteration.terms is None:
-            bias = self.gravity_bias
-            # r - scale, the damping's share of the mean motion, in float64 (scale may be a
-            # float32, and r - scale rounded to float32 would leak ~1e-8 of the momentum)
-            spared = float(iteration.ratio) - float(iteration.scale)
-            if self.free and spared != 0.0:
-                mean_displacement(state.cur, state.prev, self.mean)
-                bias = (self.gravity_bias + spared * self.mean).astype(self.real)
-            integrate_linear(self.real(iteration.scale), bias, state.cur, state.prev)
+        terms = self.solver.frame_terms
+        if terms is None:
+            i = iteration.index
+            if self.free:
+                integrate_free(self.scales[i], self.spared[i], self.gravity_bias, self.mean, state.cur, state.prev)
+            else:
+                integrate_linear(self.scales[i], self.gravity_bias, state.cur, state.prev)
         else:
-            terms = iteration.terms
-            integrate_affine(terms.m_cur, terms.m_prev, terms.bias, state.cur, state.prev)
+            i = iteration.index
+            integrate_affine(terms.m_cur[i], terms.m_prev[i], terms.bias[i], state.cur, state.prev)
+
+    def fused_call(self) -> FusedCall:
+        terms = self.solver.frame_terms
+        if terms is None and self.free:
+            return FusedCall(
+                ("{integrate}({scales}[it], {spared}[it], {gravity_bias}, {mean}, cur, prev)",),
+                {"scales": self.scales, "spared": self.spared, "gravity_bias": self.gravity_bias, "mean": self.mean},
+                {"integrate": integrate_free},
+            )
+        if terms is None:
+            return FusedCall(
+                ("{integrate}({scales}[it], {gravity_bias}, cur, prev)",),
+                {"scales": self.scales, "gravity_bias": self.gravity_bias},
+                {"integrate": integrate_linear},
+            )
+        return FusedCall(
+            ("{integrate}({m_cur}[it], {m_prev}[it], {bias}[it], cur, prev)",),
+            {"m_cur": terms.m_cur, "m_prev": terms.m_prev, "bias": terms.bias},
+            {"integrate": integrate_affine},
+        )

@@ -41,4 +41,3 @@ class Iteration:
     alpha1: float  # ... and end
     scale: float  # velocity scale: damping over h, times h / h_prev
     terms: IterationTerms | None  # frame motion terms, None when the frame does not move
-    ratio: float = 1.0  # h / h_prev (the step ratio alone, without damping)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch, upper_percentile
+from clothtool.solver.kernels.stats import constraint_strain, frame_summary, motion_summary, tether_stretch, upper_percentile
 from clothtool.solver.penetration import face_penetration
 
 PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
@@ -28,6 +28,12 @@ class ClothMeter:
             if last > first:
                 self.spans.setdefault(label, []).append((first, last))
         self.strain = np.zeros(model.constraint_indices.shape[0], solver.state.cur.dtype)
+        # frame_summary's spans, label by label in PHASE_LABELS order, and its outputs
+        ordered = [(label, span) for label in PHASE_LABELS for span in self.spans.get(label, ())]
+        self.span_labels = [label for label, _ in ordered]
+        self.span_bounds = np.array([span for _, span in ordered], np.int64).reshape(-1, 2)
+        self.span_max = np.zeros(len(ordered))
+        self.span_sum = np.zeros(len(ordered))
         self.has_tethers = model.has_tethers
         self.colliders = solver.environment.colliders
 
@@ -38,41 +44,30 @@ class ClothMeter:
         if percentiles:
             constraint_strain(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur, self.strain[:0])
             upper_percentile(self.strain[:0], 99.0)
+            motion_summary(state.cur[:0], state.prev[:0], model.mass[:0], 1.0)
+            if self.has_tethers:
+                tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
         else:
-            strain_extremes(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur)
-        motion_summary(state.cur[:0], state.prev[:0], model.mass[:0], 1.0)
-        if self.has_tethers:
-            tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
+            frame_summary(model.constraint_indices, model.constraint_rest_length, self.span_bounds[:0], state.cur[:0],
+                          state.prev[:0], model.mass[:0], 1.0, model.tether_anchor[:0], model.tether_rest_length[:0],
+                          self.span_max, self.span_sum)
 
     def measure(self, h: float, percentiles: bool, time: float | None = None) -> dict:
         """Stats after the last iteration of a frame of iteration length ``h`` ending at
-        ``time`` (seconds; face penetration is measured when given and there are colliders)."""
+        ``time`` (seconds; face penetration is measured when given and there are colliders).
+        Without percentiles one compiled call (frame_summary) measures everything."""
         model, state = self.solver.model, self.solver.state
         to_m = model.units_to_meters
-        indices, rest = model.constraint_indices, model.constraint_rest_length
-        strain = {}
-        for label in PHASE_LABELS:
-            if label not in self.spans:
-                continue
-            spans = self.spans[label]
-            if percentiles:  # the 99th percentile needs every strain: compute and keep them
-                for first, last in spans:
-                    constraint_strain(indices[first:last], rest[first:last], state.cur, self.strain[first:last])
-                values = self.strain[spans[0][0] : spans[0][1]] if len(spans) == 1 else np.concatenate(
-                    [self.strain[a:b] for a, b in spans]
-                )
-                strain[label] = {
-                    "max": float(values.max()),
-                    "mean": float(values.sum(dtype=np.float64)) / values.size,
-                    "p99": float(upper_percentile(values, 99.0)),
-                }
-                continue
-            worst, total, count = -np.inf, 0.0, 0
-            for first, last in spans:
-                span_max, span_sum = strain_extremes(indices[first:last], rest[first:last], state.cur)
-                worst, total, count = max(worst, span_max), total + span_sum, count + last - first
-            strain[label] = {"max": float(worst), "mean": total / count}
-        speed, energy, fastest, bad = motion_summary(state.cur, state.prev, model.mass, 1.0 / h)
+        if percentiles:
+            strain = self._strain_with_percentiles()
+            speed, energy, fastest, bad = motion_summary(state.cur, state.prev, model.mass, 1.0 / h)
+            stretch = tether_stretch(model.tether_anchor, model.tether_rest_length, state.cur) if self.has_tethers else 0.0
+        else:
+            speed, energy, fastest, bad, stretch = frame_summary(
+                model.constraint_indices, model.constraint_rest_length, self.span_bounds, state.cur, state.prev,
+                model.mass, 1.0 / h, model.tether_anchor, model.tether_rest_length, self.span_max, self.span_sum,
+            )
+            strain = self._strain_from_spans()
         stats = {
             "strain": strain,
             "max_speed": float(speed) * to_m,
@@ -82,7 +77,7 @@ class ClothMeter:
             "nonfinite_particle": int(bad),
         }
         if self.has_tethers:
-            stats["tether_stretch"] = float(tether_stretch(model.tether_anchor, model.tether_rest_length, state.cur))
+            stats["tether_stretch"] = float(stretch)
         if time is not None and self.colliders is not None:
             faces = face_penetration(
                 self.solver.world_points(), model.triangles, self.colliders(time), to_m, float(model.material.thickness)
@@ -90,3 +85,36 @@ class ClothMeter:
             stats["max_penetration"] = max(faces.depth, 0.0)
             stats["faces_beyond_thickness"] = faces.faces_beyond
         return stats
+
+    def _strain_from_spans(self) -> dict:
+        """Per phase type (max, mean) from frame_summary's per-span extremes."""
+        worst: dict[str, float] = {}
+        totals: dict[str, list[float]] = {}
+        for s, label in enumerate(self.span_labels):
+            first, last = self.span_bounds[s]
+            worst[label] = max(worst.get(label, -np.inf), float(self.span_max[s]))
+            total, count = totals.get(label, (0.0, 0))
+            totals[label] = (total + float(self.span_sum[s]), count + int(last - first))
+        return {label: {"max": worst[label], "mean": totals[label][0] / totals[label][1]} for label in worst}
+
+    def _strain_with_percentiles(self) -> dict:
+        """Per phase type (max, mean, p99): the 99th percentile needs every strain, so they
+        are computed and kept."""
+        model, state = self.solver.model, self.solver.state
+        indices, rest = model.constraint_indices, model.constraint_rest_length
+        strain = {}
+        for label in PHASE_LABELS:
+            if label not in self.spans:
+                continue
+            spans = self.spans[label]
+            for first, last in spans:
+                constraint_strain(indices[first:last], rest[first:last], state.cur, self.strain[first:last])
+            values = self.strain[spans[0][0] : spans[0][1]] if len(spans) == 1 else np.concatenate(
+                [self.strain[a:b] for a, b in spans]
+            )
+            strain[label] = {
+                "max": float(values.max()),
+                "mean": float(values.sum(dtype=np.float64)) / values.size,
+                "p99": float(upper_percentile(values, 99.0)),
+            }
+        return strain

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.solver.framefn import FusedCall
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.constraints import constrain_motion
 from clothtool.solver.logstiffness import iteration_stiffness
@@ -28,3 +29,11 @@ class MotionStage(Stage):
     def run(self, iteration: Iteration) -> None:
         model = self.solver.model
         constrain_motion(self.solver.motion_centers, model.max_distance, self.scale, self.bias, self.stiffness, self.solver.state.cur)
+
+    def fused_call(self) -> FusedCall:
+        return FusedCall(
+            ("{motion}({centers}, {max_distance}, {scale}, {bias}, {stiffness}, cur)",),
+            {"centers": self.solver.motion_centers, "max_distance": self.solver.model.max_distance, "scale": self.scale,
+             "bias": self.bias, "stiffness": self.stiffness},
+            {"motion": constrain_motion},
+        )

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.solver.framefn import FusedCall, copy_lines
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.selfcollide import build_grid, collide_points, collide_points_parallel, transform_points
 from clothtool.solver.logstiffness import iteration_stiffness
@@ -81,6 +82,11 @@ class SelfCollideStage(Stage):
         self.kernel = collide_points_parallel if parallel else collide_points
         self.stiffness = np.float32(0.0)
 
+    @property
+    def fused(self) -> bool:
+        """Without neighbours: with them, the cloths' iterations interleave in Python."""
+        return not self.neighbours
+
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver
         k = solver.model.material.self_collision_stiffness
@@ -125,4 +131,17 @@ class SelfCollideStage(Stage):
         self.kernel(
             self.sorted_points, self.sorted_cell, self.bucket_start, self.order, solver.model.rest_pos,
             self.point_segment, self.segment_distance, self.inv_cell, self.stiffness, solver.state.cur,
+        )
+
+    def fused_call(self) -> FusedCall:
+        # gather() without neighbours: the snapshot is a copy of the cloth's own particles
+        return FusedCall(
+            (*copy_lines("cur", "{points}"),
+             "{build_grid}({points}, {inv_cell}, {bucket_start}, {order}, {sorted_points}, {sorted_cell})",
+             "{collide}({sorted_points}, {sorted_cell}, {bucket_start}, {order}, {rest_pos}, {point_segment}, "
+             "{segment_distance}, {inv_cell}, {stiffness}, cur)"),
+            {"points": self.points, "inv_cell": self.inv_cell, "bucket_start": self.bucket_start, "order": self.order,
+             "sorted_points": self.sorted_points, "sorted_cell": self.sorted_cell, "rest_pos": self.solver.model.rest_pos,
+             "point_segment": self.point_segment, "segment_distance": self.segment_distance, "stiffness": self.stiffness},
+            {"build_grid": build_grid, "collide": self.kernel},
         )

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from clothtool.solver.framefn import FusedCall, copy_lines
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.sleep import max_displacement
 from clothtool.solver.stage import Stage
@@ -70,7 +71,10 @@ class SleepState:
 def _differs(a, b) -> bool:
     if dataclasses.is_dataclass(a):
         return any(_differs(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
-    return not np.array_equal(np.asarray(a), np.asarray(b))
+    a, b = np.asarray(a), np.asarray(b)
+    # NaN stands for "not given" in collider arrays (friction): equal to itself here, or a
+    # scene with such a collider would count as moving every frame and never sleep
+    return not np.array_equal(a, b, equal_nan=a.dtype.kind in "fc" and b.dtype.kind in "fc")
 
 
 def _collider_sampler(environment):
@@ -150,3 +154,39 @@ class SleepStage(Stage):
             sleep.moving = True
         if sleep.passes >= solver.config.sleep_after_count:
             sleep.fall_asleep(solver)
+
+    # The compiled frame function keeps the counters in ``counters`` (clock, passes, moving,
+    # asleep), does ``run``'s arithmetic on them and returns when the cloth falls asleep.
+    _FUSED_LINES = (
+        "{counters}[0] += {h}",
+        "if {counters}[0] >= {interval}:",
+        "    {counters}[0] -= {test_interval}",
+        "    if {displacement}(cur, prev) < {threshold}:",
+        "        {counters}[1] += 1.0",
+        "        {counters}[2] = 0.0",
+        "    else:",
+        "        {counters}[1] = 0.0",
+        "        {counters}[2] = 1.0",
+        "    if {counters}[1] >= {after_count}:",
+        "        {counters}[3] = 1.0",
+        *("        " + line for line in copy_lines("cur", "prev", "3")),
+        "        return it + 1",
+    )
+
+    def fused_call(self) -> FusedCall:
+        sleep, config = self.solver.sleep, self.solver.config
+        self.counters = np.array([sleep.clock, sleep.passes, float(sleep.moving), 0.0])
+        return FusedCall(
+            self._FUSED_LINES,
+            {"counters": self.counters, "h": float(self.h), "interval": float(self.interval),
+             "test_interval": float(config.sleep_test_interval), "threshold": float(self.threshold),
+             "after_count": float(config.sleep_after_count)},
+            {"displacement": max_displacement},
+        )
+
+    def end_fused_frame(self) -> None:
+        sleep = self.solver.sleep
+        clock, passes, moving, asleep = self.counters
+        sleep.clock, sleep.passes, sleep.moving = float(clock), int(passes), bool(moving)
+        if asleep:
+            sleep.asleep = True  # the frame function already set prev to cur

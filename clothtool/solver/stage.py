@@ -5,6 +5,7 @@ from __future__ import annotations
 import abc
 from typing import TYPE_CHECKING
 
+from clothtool.solver.framefn import FusedCall
 from clothtool.solver.iteration import FramePlan, Iteration
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -15,6 +16,7 @@ class Stage(abc.ABC):
     """A solver stage. ``name`` is what the profiler and the report call it."""
 
     name = "stage"
+    fused = True  # runs inside the compiled frame function (clothtool.solver.framefn)
 
     def __init__(self, solver: "ClothSolver"):
         self.solver = solver
@@ -30,3 +32,11 @@ class Stage(abc.ABC):
     @abc.abstractmethod
     def run(self, iteration: Iteration) -> None:
         """Advance this stage's part of one iteration, updating the cloth's state in place."""
+
+    @abc.abstractmethod
+    def fused_call(self) -> FusedCall:
+        """What ``run`` does, as lines of the compiled frame function: the same kernels with
+        the same arguments (per-iteration values indexed by ``it``), for the current frame."""
+
+    def end_fused_frame(self) -> None:  # noqa: B027 - optional hook
+        """Take back what the compiled frame function left in the stage's arrays."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.solver.framefn import FusedCall
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.constraints import constrain_tethers
 from clothtool.solver.logstiffness import iteration_stiffness
@@ -29,3 +30,12 @@ class TetherStage(Stage):
     def run(self, iteration: Iteration) -> None:
         model = self.solver.model
         constrain_tethers(model.tether_anchor, model.tether_rest_length, self.scale, self.stiffness, self.solver.state.cur)
+
+    def fused_call(self) -> FusedCall:
+        model = self.solver.model
+        return FusedCall(
+            ("{tethers}({anchor}, {rest_length}, {scale}, {stiffness}, cur)",),
+            {"anchor": model.tether_anchor, "rest_length": model.tether_rest_length, "scale": self.scale,
+             "stiffness": self.stiffness},
+            {"tethers": constrain_tethers},
+        )

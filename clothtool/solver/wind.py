@@ -20,6 +20,7 @@ import numpy as np
 
 from clothtool.cook.triplets import TripletScheduler
 from clothtool.solver.air import corner_shares
+from clothtool.solver.framefn import FusedCall, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.wind import apply_wind
 from clothtool.solver.stage import Stage
@@ -52,6 +53,15 @@ class WindStage(Stage):
         s = solver.model.units_to_meters
         self.density = np.float32(solver.environment.fluid_density * s**3 / 12.0)
         self.wind_world = solver.environment.wind_at(plan.time) * plan.h
+        # per iteration: the frame's motion and the air's displacement in the cloth's frame
+        terms = solver.frame_terms
+        if terms is None:
+            self.matrix = np.zeros((plan.iterations, 3, 3), np.float32)
+            self.offset = np.zeros((plan.iterations, 3), np.float32)
+            self.air = stacked(np.broadcast_to(self.wind_world, (plan.iterations, 3)), np.float32)
+        else:
+            self.matrix, self.offset = terms.motion_matrix, terms.motion_offset
+            self.air = stacked(terms.to_local @ self.wind_world, np.float32)
 
     def warm_up(self) -> None:
         solver = self.solver
@@ -61,13 +71,17 @@ class WindStage(Stage):
 
     def run(self, iteration: Iteration) -> None:
         solver = self.solver
-        if iteration.terms is None:
-            matrix, offset = _NO_MOTION
-            air = self.wind_world.astype(np.float32)
-        else:
-            matrix, offset = iteration.terms.motion_matrix, iteration.terms.motion_offset
-            air = (iteration.terms.to_local @ self.wind_world).astype(np.float32)
+        i = iteration.index
         apply_wind(
-            self.triangles, self.color_offsets, self.share, matrix, offset, air, self.drag, self.lift, self.density,
-            solver.state.cur, solver.state.prev,
+            self.triangles, self.color_offsets, self.share, self.matrix[i], self.offset[i], self.air[i], self.drag,
+            self.lift, self.density, solver.state.cur, solver.state.prev,
+        )
+
+    def fused_call(self) -> FusedCall:
+        return FusedCall(
+            ("{wind}({triangles}, {color_offsets}, {share}, {matrix}[it], {offset}[it], {air}[it], {drag}, {lift}, "
+             "{density}, cur, prev)",),
+            {"triangles": self.triangles, "color_offsets": self.color_offsets, "share": self.share, "matrix": self.matrix,
+             "offset": self.offset, "air": self.air, "drag": self.drag, "lift": self.lift, "density": self.density},
+            {"wind": apply_wind},
         )

@@ -1,4 +1,4 @@
-"""constraint_strain / motion_summary / tether_stretch against tests/reference/stats.py."""
+"""constraint_strain / motion_summary / tether_stretch / frame_summary against tests/reference/stats.py."""
 
 from __future__ import annotations
 
@@ -7,7 +7,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clothtool.solver.kernels.stats import constraint_strain, motion_summary, strain_extremes, tether_stretch, upper_percentile
+from clothtool.solver.kernels.stats import (
+    constraint_strain,
+    frame_summary,
+    motion_summary,
+    strain_extremes,
+    tether_stretch,
+    upper_percentile,
+)
 from tests.kernels._data import U, assert_close, f32, particles
 from tests.reference import stats as ref
 
@@ -157,3 +164,30 @@ def test_upper_percentile_matches_numpy(seed, n, q, ties):
 def test_upper_percentile_nan():
     assert np.isnan(upper_percentile(f32([0.1, np.nan, 0.2]), 99.0))
     assert upper_percentile(f32([0.25]), 99.0) == 0.25
+
+
+@settings(max_examples=25)
+@given(seed=seeds, n=st.integers(1, 40), c=st.integers(0, 80), spans=st.integers(0, 5), k=st.integers(0, 2))
+def test_frame_summary_is_the_separate_kernels_in_one_call(seed, n, c, spans, k):
+    """The same figures, to the bit, as strain_extremes over each span, motion_summary and
+    tether_stretch called one by one (which the reference checks against numpy)."""
+    rng = np.random.default_rng(seed)
+    cur, prev = particles(rng, n, speed=0.01)
+    indices = np.ascontiguousarray(rng.integers(0, n, (c, 2)), np.int32)
+    rest = f32(rng.uniform(0.0, 1.0, c))
+    cuts = np.sort(rng.integers(0, c + 1, 2 * spans)).reshape(-1, 2).astype(np.int64)
+    masses = rng.uniform(0.001, 0.01, n)
+    anchors = np.ascontiguousarray(rng.integers(0, n, k * n), np.int32)
+    lengths = f32(rng.uniform(0.0, 1.0, k * n))
+    span_max, span_sum = np.full(spans, np.nan), np.full(spans, np.nan)
+    got = frame_summary(indices, rest, cuts, cur, prev, masses, INV_DT, anchors, lengths, span_max, span_sum)
+    separate = (*motion_summary(cur, prev, masses, INV_DT), tether_stretch(anchors, lengths, cur))
+    assert got == separate
+    for s, (first, last) in enumerate(cuts):
+        assert (span_max[s], span_sum[s]) == strain_extremes(indices[first:last], rest[first:last], cur)
+    want_max, want_sum = np.full(spans, np.nan), np.full(spans, np.nan)
+    want = ref.frame_summary(indices, rest, cuts, cur, prev, masses, INV_DT, anchors, lengths, want_max, want_sum)
+    assert got[2:4] == want[2:4] and got[0] == pytest.approx(want[0], rel=1e-6) and got[4] == pytest.approx(want[4], rel=1e-5, abs=1e-5)
+    for s, (first, last) in enumerate(cuts):
+        if last > first:
+            assert span_max[s] == pytest.approx(want_max[s], abs=10 * U * (abs(want_max[s]) + 1))

@@ -68,6 +68,19 @@ def strain_extremes(indices, rest, cur):
     return (float(strain.max()) if strain.size else -np.inf), float(strain.sum())
 
 
+def _strain_extremes_between(indices, rest, cur, first, last):
+    """strain_extremes over constraints first .. last."""
+    return strain_extremes(np.asarray(indices)[first:last], np.asarray(rest)[first:last], cur)
+
+
+def frame_summary(indices, rest, spans, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max, span_sum):
+    """strain_extremes per span into span_max, span_sum; returns motion_summary's four values
+    and tether_stretch."""
+    for s, (first, last) in enumerate(np.asarray(spans)):
+        span_max[s], span_sum[s] = _strain_extremes_between(indices, rest, cur, first, last)
+    return (*motion_summary(cur, prev, masses, inv_dt), tether_stretch(anchors, tether_lengths, cur))
+
+
 def _edge_strains(flat, indices, rest, lo, hi, out=None):
     """Returns the strains of constraints lo .. hi (flat: the (n*4,) particle view)."""
     return constraint_strain(np.asarray(indices)[lo:hi], np.asarray(rest)[lo:hi], np.asarray(flat).reshape(-1, 4))

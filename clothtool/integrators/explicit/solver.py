@@ -202,6 +202,10 @@ class ExplicitClothSolver:
             collide_convexes(v4, v4, no_offsets, v1, v1, *state)
             collide_triangles(v3, v3, np.zeros((0, 3), np.int32), no_offsets, v1, v1, *state)
 
+    def run_frame(self, plan: FramePlan) -> bool:
+        """Frames run iteration by iteration (the runner calls iteration/iterate)."""
+        return False
+
     def iterate(self, iteration: Iteration) -> None:
         """One symplectic Euler substep of length plan.h."""
         plan = self._plan

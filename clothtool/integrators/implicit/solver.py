@@ -287,6 +287,10 @@ class ImplicitClothSolver:
             self.iterate(self.iteration(plan, index))
         return plan
 
+    def run_frame(self, plan: FramePlan) -> bool:
+        """Frames run iteration by iteration (the runner calls iteration/iterate)."""
+        return False
+
     def iterate(self, iteration: Iteration) -> None:
         """One implicit step of length plan.h."""
         plan = self._plan

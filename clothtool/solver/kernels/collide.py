@@ -314,7 +314,10 @@ def collide_particles_for(meshes: bool, convexes: bool, continuous: bool):
     """(serial, parallel) particle kernels that handle mesh colliders, convex colliders and
     continuous collision only when asked (the ones left out must be absent or off in the
     arguments); same arguments and results as ``collide_particles``."""
-    return serial_and_parallel(_make_collide_particles(meshes, convexes, continuous))
+    kernels = serial_and_parallel(_make_collide_particles(meshes, convexes, continuous))
+    for index, dispatcher in enumerate(kernels):  # how a generated frame function gets it
+        dispatcher.frame_import = f"collide_particles_for({meshes}, {convexes}, {continuous})[{index}]"
+    return kernels
 
 
 collide_particles, collide_particles_parallel = collide_particles_for(True, True, True)

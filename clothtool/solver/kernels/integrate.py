@@ -65,6 +65,22 @@ def mean_displacement(cur, prev, out):
         out[2] = 0.0
 
 
+@kernel
+def integrate_free(scale, spared, gravity_bias, mean, cur, prev):
+    """integrate_linear for a free cloth damped relative to its mean motion
+    (clothtool.solver.integrate): bias = gravity_bias + spared * D, D the mean displacement
+    (written to ``mean``), summed in float64; ``spared`` = step ratio - scale (0: no damping
+    and no step change, gravity_bias alone)."""
+    if spared == 0.0:
+        integrate_linear(scale, gravity_bias, cur, prev)
+        return
+    mean_displacement(cur, prev, mean)
+    bias = np.empty(3, cur.dtype)
+    for k in range(3):
+        bias[k] = np.float64(gravity_bias[k]) + spared * mean[k]
+    integrate_linear(scale, bias, cur, prev)
+
+
 @kernel(inline="always")
 def _row(m, r, x, y, z):
     return m[r, 0] * x + m[r, 1] * y + m[r, 2] * z

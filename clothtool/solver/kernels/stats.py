@@ -95,26 +95,44 @@ def constraint_strain(indices, rest, cur, strain):
             strain[lo + i] = block_strain[i]
 
 
-# "reassoc" lets the float64 sum vectorise; its order is fixed by the code, so the result
-# stays deterministic.
-@kernel(fastmath={"contract", "reassoc"})
-def strain_extremes(indices, rest, cur):
-    """(max strain, sum of strains) over the constraints given: the same strain as
-    ``constraint_strain``, reduced without storing it (float64 sum)."""
+@kernel(inline="always", fastmath={"contract", "reassoc"})
+def _strain_extremes_between(indices, rest, cur, first, last):
+    """(max strain, sum of strains) over constraints first .. last (see strain_extremes)."""
     flat = cur.reshape(-1)
     strain = np.empty(STRAIN_BLOCK, cur.dtype)
     worst = np.float32(-np.inf)
     total = 0.0
-    n = indices.shape[0]
+    n = last - first
     for block in range((n + STRAIN_BLOCK - 1) // STRAIN_BLOCK):
-        lo = np.uintp(block * STRAIN_BLOCK)
-        hi = np.uintp(min(block * STRAIN_BLOCK + STRAIN_BLOCK, n))
+        lo = np.uintp(first + block * STRAIN_BLOCK)
+        hi = np.uintp(first + min(block * STRAIN_BLOCK + STRAIN_BLOCK, n))
         _edge_strains(flat, indices, rest, lo, hi, strain)
         for i in range(hi - lo):  # apart from the max, so that the sum vectorises
             total += np.float64(strain[i])
         for i in range(hi - lo):
             worst = max(worst, strain[i])
     return np.float64(worst), total
+
+
+# "reassoc" lets the float64 sum vectorise; its order is fixed by the code, so the result
+# stays deterministic.
+@kernel(fastmath={"contract", "reassoc"})
+def strain_extremes(indices, rest, cur):
+    """(max strain, sum of strains) over the constraints given: the same strain as
+    ``constraint_strain``, reduced without storing it (float64 sum)."""
+    return _strain_extremes_between(indices, rest, cur, 0, indices.shape[0])
+
+
+@kernel(fastmath={"contract", "reassoc"})
+def frame_summary(indices, rest, spans, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max, span_sum):
+    """A frame's stats in one call: span_max[s], span_sum[s] = strain_extremes over the
+    constraints spans[s, 0] .. spans[s, 1]; returns motion_summary's (max speed, kinetic
+    energy, fastest particle, first non-finite particle) and tether_stretch (0 without
+    tethers)."""
+    for s in range(spans.shape[0]):
+        span_max[s], span_sum[s] = _strain_extremes_between(indices, rest, cur, spans[s, 0], spans[s, 1])
+    speed, energy, fastest, bad = motion_summary(cur, prev, masses, inv_dt)
+    return speed, energy, fastest, bad, tether_stretch(anchors, tether_lengths, cur)
 
 
 @kernel
