@@ -186,11 +186,13 @@ class Fabric:
         """The mesh vertex that ``particle`` is (for messages that name an element)."""
         return int(self.particle_vertex[particle]) if self.reordered and 0 <= particle < self.particle_count else particle
 
+    def vertex_numbers(self, particles: np.ndarray) -> np.ndarray:
+        """Particle indices (any shape) as the mesh's vertex numbers."""
+        return self.particle_vertex[particles] if self.reordered else particles
+
     def vertex_face_indices(self) -> np.ndarray:
         """i32 (fv,) ``face_vertex_indices`` as mesh vertex numbers (the render topology)."""
-        if not self.reordered:
-            return self.face_vertex_indices
-        return self.particle_vertex[self.face_vertex_indices]
+        return self.vertex_numbers(self.face_vertex_indices)
 
     def phase_constraints(self, phase: int) -> slice:
         """Slice of the constraint arrays that belongs to phase ``phase``."""
