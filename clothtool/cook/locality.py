@@ -9,10 +9,12 @@ narrow band of indices; the scheduler then sorts each set's constraints by parti
 (clothtool.cook.triplets), so a sweep walks memory almost sequentially.
 
 Reverse Cuthill-McKee was measured against a 3-D Morton (Z-order) curve over the rest
-positions (``benchmarks/locality.py``): both recover scanline speed on a shuffled mesh, and
-RCM needs no tolerance or grid resolution, follows the surface rather than the embedding
-(two layers of a folded garment that touch in space stay apart), and gives the greedy
-scheduler no more sets than the scanline order does.
+positions (``python benchmarks/locality.py``, one thread, CPU ns per particle-iteration): on a
+1000^2 grid whose vertices arrive shuffled, vertex order costs 93 ns, RCM 55 and Morton 63,
+against 50-52 for the scanline grid (10k particles: 28-30 in every order). RCM also needs no
+grid resolution, follows the surface rather than the embedding (two layers of a folded
+garment that touch in space stay apart) and gives the greedy scheduler as few sets as the
+scanline order (12 on a grid; Morton 14), so it is the cook's order.
 
 The renumbering is a permutation recorded in the fabric (``Fabric.particle_vertex``), so
 caches still present points in the input mesh's vertex order.
