@@ -220,6 +220,8 @@ def _does_without(scene: Scene, solver: Integrator) -> dict:
 
 
 def _topology(solver: Integrator, attributes: frozenset[str]) -> ClothTopology:
+    """The cloth's render topology and maps for the cache, in the mesh's vertex order (the
+    cook may have renumbered the particles for locality: ``Fabric.particle_vertex``)."""
     fabric = solver.model.fabric
     # The painted pin map as DCCs read it (1 pinned, 0 free); the model marks a pin by inverse mass 0.
     primvars = {PIN_PRIMVAR: (solver.model.inv_mass == 0).astype(np.float32)}
@@ -229,11 +231,11 @@ def _topology(solver: Integrator, attributes: frozenset[str]) -> ClothTopology:
         ).astype(np.float32)
     return ClothTopology(
         name=solver.model.name,
-        rest_pos=solver.world_points(),
+        rest_pos=fabric.in_vertex_order(solver.world_points()),
         face_vertex_counts=fabric.face_vertex_counts,
-        face_vertex_indices=fabric.face_vertex_indices,
+        face_vertex_indices=fabric.vertex_face_indices(),
         face_vertex_uv=fabric.face_vertex_uv if fabric.face_vertex_uv.shape[0] else None,
-        vertex_primvars=primvars,
+        vertex_primvars={name: fabric.in_vertex_order(values) for name, values in primvars.items()},
     )
 
 
@@ -252,11 +254,11 @@ def _check_stable(scene: Scene, frame: int, solver: Integrator, stats: dict) -> 
     if not stats["finite"]:
         raise UnstableError(
             f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle "
-            f"{stats['nonfinite_particle']} is NaN or infinite; lower the time step (raise solver.frequency) or check the inputs"
+            f"{solver.model.fabric.vertex_of(stats['nonfinite_particle'])} is NaN or infinite; lower the time step (raise solver.frequency) or check the inputs"
         )
     if stats["max_speed"] > scene.solver.max_speed:
         raise UnstableError(
-            f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle {stats['fastest_particle']} "
+            f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle {solver.model.fabric.vertex_of(stats['fastest_particle'])} "
             f"moves at {stats['max_speed']:.3g} m/s (limit solver.max_speed = {scene.solver.max_speed:g}); "
             "raise solver.frequency or damping"
         )
@@ -437,6 +439,11 @@ def _with_colliders(scene: Scene, frame: FrameData) -> FrameData:
     )
 
 
+def _points_in_vertex_order(solvers: list[Integrator]) -> tuple[np.ndarray, ...]:
+    """Each cloth's world points as the cache presents them: in its mesh's vertex order."""
+    return tuple(s.model.fabric.in_vertex_order(s.world_points()) for s in solvers)
+
+
 def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> FrameData:
     velocities = None
     if "velocities" in attributes:
@@ -444,22 +451,22 @@ def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> Frame
         for solver, cloth in zip(solvers, scene.cloths):
             v = np.zeros((solver.model.particle_count, 3), np.float32)
             v[solver.model.inv_mass > 0] = cloth.initial_velocity
-            velocities.append(v)
+            velocities.append(solver.model.fabric.in_vertex_order(v))
         velocities = tuple(velocities)
     stats = None
     if "stats" in attributes:
         stats = tuple({field: 0.0 for field in STATS_FIELDS} for _ in solvers)
-    return FrameData(scene.start_frame, tuple(s.world_points() for s in solvers), velocities, stats)
+    return FrameData(scene.start_frame, _points_in_vertex_order(solvers), velocities, stats)
 
 
 def _frame_data(frame, solvers, plans, per_cloth, attributes) -> FrameData:
     velocities = None
     if "velocities" in attributes:
-        velocities = tuple(s.world_velocities(p.h) for s, p in zip(solvers, plans))
+        velocities = tuple(s.model.fabric.in_vertex_order(s.world_velocities(p.h)) for s, p in zip(solvers, plans))
     stats = None
     if "stats" in attributes:
         stats = tuple(_frame_stats_fields(per_cloth[s.model.name]) for s in solvers)
-    return FrameData(frame, tuple(s.world_points() for s in solvers), velocities, stats)
+    return FrameData(frame, _points_in_vertex_order(solvers), velocities, stats)
 
 
 def plan(scene: Scene, calibration_frames: int = 2, calibration_seconds: float = 2.0) -> dict:

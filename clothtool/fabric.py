@@ -6,12 +6,13 @@ independent of the material: masses are stored per unit areal density.
 
 Shapes use ``n`` particles, ``t`` triangles, ``f`` faces, ``p`` phases, ``s`` sets, ``c``
 constraints, ``k`` tethers per particle, ``v`` virtual particles, ``w`` virtual weights,
-``b`` virtual-particle batches. Every field is described in ``formats/fabric/v1.md``.
+``b`` virtual-particle batches. Every field is described in ``formats/fabric/v2.md``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from enum import IntEnum
 
 import numpy as np
@@ -19,7 +20,10 @@ import numpy as np
 from clothtool.errors import FabricError
 
 FORMAT_NAME = "clothtool-fabric"
-FORMAT_VERSION = 1
+# Version 2 adds ``particle_vertex`` (particles renumbered for locality); a fabric without it
+# is written as version 1, byte for byte as before, so that older readers still read it.
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
 
 
 class PhaseType(IntEnum):
@@ -56,7 +60,10 @@ ARRAY_FIELDS: tuple[tuple[str, type, tuple], ...] = (
     ("virtual_particles", np.int32, ("v", 4)),
     ("virtual_particle_weights", np.float32, ("w", 3)),
     ("virtual_batch_offsets", np.int32, ("b+1",)),
+    ("particle_vertex", np.int32, ("n or 0",)),
 )
+# Fields a version-1 file does not hold: read as empty (particles in vertex order).
+OPTIONAL_ARRAY_FIELDS = ("particle_vertex",)
 ARRAY_FIELD_NAMES = tuple(name for name, _, _ in ARRAY_FIELDS)
 
 # Scalar/string metadata stored as HDF5 root attributes.
@@ -65,7 +72,7 @@ ATTR_FIELDS = ("meters_per_unit", "up_axis", "hang_direction", "source_sha256", 
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Fabric:
-    """Cooked cloth data (see module docstring and ``formats/fabric/v1.md``).
+    """Cooked cloth data (see module docstring and ``formats/fabric/v2.md``).
 
     Attributes:
         rest_pos: f32 (n,3) particle positions of the cooking pose, in fabric units.
@@ -90,6 +97,9 @@ class Fabric:
             ``virtual_particle_weights``; ordered in conflict-free batches.
         virtual_particle_weights: f32 (w,3) barycentric weights.
         virtual_batch_offsets: i32 (b+1,) CSR into ``virtual_particles``.
+        particle_vertex: i32 (n,) the vertex of the cooked (welded) mesh that particle i is,
+            when the cook renumbered the particles for memory locality; (0,) when particle i
+            is vertex i. Caches present points in vertex order (``in_vertex_order``).
         meters_per_unit: size of one fabric unit in metres.
         up_axis: "Y" or "Z".
         hang_direction: f32 (3,) unit vector that separates vertical from horizontal stretch.
@@ -116,6 +126,7 @@ class Fabric:
     virtual_particles: np.ndarray
     virtual_particle_weights: np.ndarray
     virtual_batch_offsets: np.ndarray
+    particle_vertex: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, np.int32))
     meters_per_unit: float = 1.0
     up_axis: str = "Y"
     hang_direction: np.ndarray = dataclasses.field(
@@ -151,6 +162,38 @@ class Fabric:
         """Boolean (n,) mask of pinned particles."""
         return self.particle_inv_mass == 0
 
+    @property
+    def reordered(self) -> bool:
+        """True when the particles are numbered apart from the mesh's vertices."""
+        return bool(self.particle_vertex.shape[0])
+
+    @functools.cached_property
+    def vertex_particle(self) -> np.ndarray | None:
+        """i64 (n,): the particle of each mesh vertex, or None when particle i is vertex i
+        (computed once: the bake rearranges every frame's points with it)."""
+        if not self.reordered:
+            return None
+        inverse = np.empty(self.particle_count, np.int64)
+        inverse[self.particle_vertex] = np.arange(self.particle_count, dtype=np.int64)
+        return inverse
+
+    def in_vertex_order(self, values: np.ndarray) -> np.ndarray:
+        """Per-particle ``values`` (n, ...) rearranged into the mesh's vertex order: a copy
+        when the particles were renumbered, ``values`` itself otherwise."""
+        return values if self.vertex_particle is None else values[self.vertex_particle]
+
+    def vertex_of(self, particle: int) -> int:
+        """The mesh vertex that ``particle`` is (for messages that name an element)."""
+        return int(self.particle_vertex[particle]) if self.reordered and 0 <= particle < self.particle_count else particle
+
+    def vertex_numbers(self, particles: np.ndarray) -> np.ndarray:
+        """Particle indices (any shape) as the mesh's vertex numbers."""
+        return self.particle_vertex[particles] if self.reordered else particles
+
+    def vertex_face_indices(self) -> np.ndarray:
+        """i32 (fv,) ``face_vertex_indices`` as mesh vertex numbers (the render topology)."""
+        return self.vertex_numbers(self.face_vertex_indices)
+
     def phase_constraints(self, phase: int) -> slice:
         """Slice of the constraint arrays that belongs to phase ``phase``."""
         first_set = self.phase_set_offsets[phase]
@@ -184,6 +227,8 @@ def _check_dtype_shape(fabric: Fabric) -> None:
         if array.ndim != len(shape):
             _fail(name, f"has {array.ndim} dimensions, expected {len(shape)}")
         for axis, dim in enumerate(shape):
+            if dim == "n or 0" and array.shape[axis] not in (0, n):
+                _fail(name, f"shape {array.shape}, axis {axis} must be the particle count {n} or 0")
             if isinstance(dim, int) and array.shape[axis] != dim:
                 _fail(name, f"shape {array.shape}, axis {axis} must be {dim}")
             if dim == "n" and array.shape[axis] != n:
@@ -320,6 +365,13 @@ def _validate(fabric: Fabric) -> None:
     )
     _check_csr("virtual_batch_offsets", fabric.virtual_batch_offsets, fabric.virtual_particles.shape[0])
     _check_virtual_batches(fabric)
+    if fabric.reordered:
+        seen = np.zeros(n, np.int64)
+        _check_index_range("particle_vertex", fabric.particle_vertex[:, None], n)
+        np.add.at(seen, fabric.particle_vertex, 1)
+        if np.any(seen != 1):
+            vertex = int(np.flatnonzero(seen != 1)[0])
+            _fail("particle_vertex", f"names vertex {vertex} {int(seen[vertex])} times; it must be a permutation of 0..{n - 1}")
     if fabric.up_axis not in ("Y", "Z"):
         _fail("up_axis", f"is '{fabric.up_axis}', expected 'Y' or 'Z'")
     if not (np.isfinite(fabric.meters_per_unit) and fabric.meters_per_unit > 0):

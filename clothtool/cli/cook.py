@@ -35,6 +35,8 @@ from clothtool.cli.common import emit_json, float_list, handle_errors, warn
 @click.option("--max-distance-range", callback=float_list(2), help="LOW,HIGH radius for weights 0 and 1 (mesh units) [0,1].")
 @click.option("--stiffness-attr", help="Vertex attribute (0..1) scaling constraint stiffness.")
 @click.option("--virtual-particles", type=int, help="Virtual collision particles per triangle: 0, 1, 3 or 4 [0].")
+@click.option("--reorder/--no-reorder", default=None,
+              help="Renumber particles for memory locality (caches keep the mesh's vertex order) [on].")
 @click.option("--strict", is_flag=True, help="Treat repairs and warnings as errors.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fabric summary (batch: the manifest) as JSON.")
 @batch_options

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from clothtool.cook import paint
+from clothtool.cook import locality
 from clothtool.cook.adjacency import AdjacencyQuerier
 from clothtool.cook.phases import build_phases
 from clothtool.cook.tethers import build_tethers
@@ -52,6 +53,7 @@ class CookOptions:
     max_distance_range: tuple[float, float] = (0.0, 1.0)
     stiffness_attr: str | None = None
     virtual_particles: int = 0
+    reorder: bool = True
     strict: bool = False
 
     def check(self) -> None:
@@ -164,7 +166,15 @@ def cook_fabric(mesh: ClothMesh, options: CookOptions = CookOptions(), source_sh
         clock = now
 
     prepared = prepare_mesh(mesh, options.weld, options.strict)
-    clean = prepared.mesh
+    clean, vertex_map = prepared.mesh, prepared.vertex_map
+    # Particles are numbered for memory locality (clothtool.cook.locality); the fabric keeps
+    # the cleaned mesh's vertex of each particle so that caches come out in vertex order.
+    particle_vertex = np.zeros(0, np.int32)
+    if options.reorder:
+        order = locality.rcm_order(clean)
+        clean = locality.reorder_mesh(clean, order)
+        vertex_map = locality.renumber_vertex_map(vertex_map, order)
+        particle_vertex = order.astype(np.int32)
     if options.strict and mesh.warnings:
         raise MeshError(f"{mesh.warnings[0].replace(': warning: ', ': ', 1)} (an error because of --strict)")
     warnings = list(mesh.warnings) + list(prepared.warnings)
@@ -190,7 +200,7 @@ def cook_fabric(mesh: ClothMesh, options: CookOptions = CookOptions(), source_sh
     )
     lap("phases")
 
-    pinned = _pinned_mask(clean, options, prepared.vertex_map)
+    pinned = _pinned_mask(clean, options, vertex_map)
     stiffness = paint.stiffness_from_attribute(clean, options.stiffness_attr) if options.stiffness_attr else None
     max_distance = np.full(n, np.inf, np.float32)
     if options.max_distance_attr is not None:
@@ -246,6 +256,7 @@ def cook_fabric(mesh: ClothMesh, options: CookOptions = CookOptions(), source_sh
         virtual_particles=virtual,
         virtual_particle_weights=virtual_weights,
         virtual_batch_offsets=virtual_offsets,
+        particle_vertex=particle_vertex,
         meters_per_unit=meters_per_unit,
         up_axis=up_axis,
         hang_direction=hang.astype(np.float32),

@@ -1,6 +1,6 @@
 """Fabric files: HDF5, one dataset per Fabric array field, metadata as root attributes.
 
-The layout is specified in ``formats/fabric/v1.md``. Files are byte-identical when the
+The layout is specified in ``formats/fabric/v2.md``. Files are byte-identical when the
 same fabric is written twice (h5py does not record times by default; we fix the library
 version bounds and write datasets in a fixed order).
 """
@@ -16,7 +16,9 @@ import numpy as np
 
 from clothtool import __version__
 from clothtool.errors import FormatError, UsageError
-from clothtool.fabric import ARRAY_FIELDS, ATTR_FIELDS, FORMAT_NAME, FORMAT_VERSION, Fabric
+from clothtool.fabric import (
+    ARRAY_FIELDS, ATTR_FIELDS, FORMAT_NAME, FORMAT_VERSION, OPTIONAL_ARRAY_FIELDS, READABLE_VERSIONS, Fabric,
+)
 from clothtool.inputs import note_input
 from clothtool.io.atomic import atomic_output, write_error
 from clothtool.io.h5safe import check_hdf5_file, read_dataset
@@ -57,7 +59,8 @@ def write_fabric(fabric: Fabric, path: str | os.PathLike) -> None:
 
 def _write_fabric_file(fabric: Fabric, f) -> None:
     f.attrs["format"] = FORMAT_NAME
-    f.attrs["format_version"] = FORMAT_VERSION
+    # A fabric in vertex order has nothing version 1 lacks: it is written as version 1.
+    f.attrs["format_version"] = FORMAT_VERSION if fabric.reordered else 1
     f.attrs["generator"] = f"clothtool {__version__}"
     f.attrs["particle_count"] = fabric.particle_count
     f.attrs["meters_per_unit"] = float(fabric.meters_per_unit)
@@ -67,6 +70,8 @@ def _write_fabric_file(fabric: Fabric, f) -> None:
     f.attrs["cook_options"] = fabric.cook_options
     for name, _, _ in ARRAY_FIELDS:
         data = getattr(fabric, name)
+        if name in OPTIONAL_ARRAY_FIELDS and data.shape[0] == 0:
+            continue
         options = {}
         if data.nbytes >= _COMPRESS_ABOVE_BYTES:
             options = dict(compression="gzip", compression_opts=4, shuffle=True)
@@ -91,13 +96,17 @@ def read_fabric(path: str | os.PathLike, validate: bool = True) -> Fabric:
             if f.attrs.get("format") != FORMAT_NAME:
                 _fail(path, f"not a clothtool fabric (format attribute is {_shown(f.attrs.get('format'))}); cook the mesh with 'clothtool cook'")
             version = int(f.attrs.get("format_version", -1))
-            if version != FORMAT_VERSION:
-                _fail(path, f"fabric format version {version} is not supported (this clothtool reads {FORMAT_VERSION}); re-cook it")
+            if version not in READABLE_VERSIONS:
+                readable = " and ".join(str(v) for v in READABLE_VERSIONS)
+                _fail(path, f"fabric format version {version} is not supported (this clothtool reads {readable}); re-cook it")
             # Before any data is read: nothing may point outside the file or claim more
             # bytes than the file holds.
             check_hdf5_file(f, path, _FIX)
             arrays = {}
             for name, dtype, shape in ARRAY_FIELDS:
+                if name in OPTIONAL_ARRAY_FIELDS and version < 2:  # version 1 has none
+                    arrays[name] = np.zeros(0, dtype)
+                    continue
                 if name not in f or not isinstance(f.get(name), h5py.Dataset):
                     _fail(path, f"dataset '{name}' is missing; the file is truncated or damaged, re-cook it")
                 width = shape[-1] if isinstance(shape[-1], int) else None

@@ -253,7 +253,8 @@ def _cloth(ctx, stage_path: Path, prim, name, mpu, up_axis, strict, collider_nam
     except ClothtoolError as exc:
         raise SceneError(f"{where}: {exc}") from None
     fabric = result.fabric
-    mapping = vertex_particles(mesh.vertex_pos, fabric.rest_pos.astype(np.float64), where)
+    # the bake writes points in the cooked mesh's vertex order (Fabric.in_vertex_order): map to that
+    mapping = vertex_particles(mesh.vertex_pos, fabric.in_vertex_order(fabric.rest_pos).astype(np.float64), where)
     return ClothInstance(
         name=name, source=f"{stage_path.name}:{prim.GetPath()}", fabric=fabric, material=material, placement=Placement(),
         track=None, motion=MotionSettings(), backstop=None, initial_velocity=np.zeros(3),

@@ -84,3 +84,50 @@ def test_text_file_is_refused(out_dir):
     path.write_text("hello")
     with pytest.raises(FormatError, match="cannot be read as a fabric"):
         read_fabric(path)
+
+
+def test_a_reordered_fabric_is_version_2_and_keeps_its_particle_order(out_dir):
+    fabric = cooked()
+    assert fabric.reordered
+    path = out_dir / "cloth.fabric.h5"
+    write_fabric(fabric, path)
+    with h5py.File(path, "r") as f:
+        assert int(f.attrs["format_version"]) == 2 and "particle_vertex" in f
+    np.testing.assert_array_equal(read_fabric(path).particle_vertex, fabric.particle_vertex)
+
+
+def test_a_fabric_in_vertex_order_is_written_as_version_1(out_dir):
+    fabric = cook_fabric(grid(6, 6, 0.1), CookOptions(tethers="none", reorder=False)).fabric
+    path = out_dir / "cloth.fabric.h5"
+    write_fabric(fabric, path)
+    with h5py.File(path, "r") as f:
+        assert int(f.attrs["format_version"]) == 1 and "particle_vertex" not in f
+    back = read_fabric(path)
+    assert not back.reordered and back.particle_vertex.shape == (0,)
+
+
+def test_version_1_file_reads_in_vertex_order_even_with_a_stray_dataset(out_dir):
+    """A version-1 file has no particle order: a dataset of that name is not read."""
+    path = out_dir / "cloth.fabric.h5"
+    write_fabric(cooked(), path)
+    with h5py.File(path, "a") as f:
+        f.attrs["format_version"] = 1
+    assert not read_fabric(path).reordered
+
+
+def test_version_2_without_particle_order_is_refused(out_dir):
+    path = out_dir / "cloth.fabric.h5"
+    write_fabric(cooked(), path)
+    with h5py.File(path, "a") as f:
+        del f["particle_vertex"]
+    with pytest.raises(FormatError, match="dataset 'particle_vertex' is missing"):
+        read_fabric(path)
+
+
+def test_particle_order_that_is_no_permutation_is_refused(out_dir):
+    path = out_dir / "cloth.fabric.h5"
+    write_fabric(cooked(), path)
+    with h5py.File(path, "a") as f:
+        f["particle_vertex"][1] = f["particle_vertex"][0]
+    with pytest.raises(FormatError, match="invalid fabric.*particle_vertex.*permutation"):
+        read_fabric(path)

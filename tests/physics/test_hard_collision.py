@@ -141,7 +141,7 @@ def test_thin_capsule_never_passes_through_the_curtain(speed, frequency, hanging
 
 def test_without_continuous_collision_the_capsule_tunnels(hanging_curtain):
     run = sweep_run(30.0, 300.0, continuous=False, fabric=hanging_curtain)
-    assert run.notes["_closest"] < 1e-3, run.summary()
+    assert run.notes["_closest"] < RADIUS, run.summary()  # a particle's path went through the capsule
 
 
 # ------------------------------------------------------------------ squeeze

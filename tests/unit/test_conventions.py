@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from clothtool.cli import main
-from clothtool.fabric import ARRAY_FIELDS, ATTR_FIELDS
+from clothtool.fabric import ARRAY_FIELDS, ATTR_FIELDS, FORMAT_VERSION
 
 from tests.conftest import REPO
 
@@ -32,7 +32,7 @@ def test_every_command_has_help_and_a_readme_section(command):
 
 
 def test_every_fabric_field_is_specified():
-    spec = (REPO / "formats" / "fabric" / "v1.md").read_text()
+    spec = (REPO / "formats" / "fabric" / f"v{FORMAT_VERSION}.md").read_text()
     for name, _, _ in ARRAY_FIELDS:
         assert f"| `{name}` |" in spec, name
     for name in ATTR_FIELDS:
