@@ -311,10 +311,11 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
         stages_seen += [name for name in solver.stage_names if name not in stages_seen]
     stats.stages = stages_seen
 
+    mesh_penetration = options.penetration and scene.colliders is not None and any(c.kind == "mesh" for c in scene.colliders.colliders)
     with profiler.stage("jit warm-up"):
         for solver, meter in zip(solvers, meters):
             solver.warm_up()
-            meter.warm_up(options.percentiles)
+            meter.warm_up(options.percentiles, mesh_penetration)
     if scene.colliders is not None:  # the colliders at every frame's time, sampled at once
         scene.colliders.prefetch([scene.frame_time(f) for f in range(scene.start_frame - scene.preroll, scene.end_frame + 1)])
     # Cloths that do not collide with each other need not interleave: each runs its frame

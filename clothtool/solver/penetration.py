@@ -211,6 +211,18 @@ def mesh_depths(points: np.ndarray, triangles: np.ndarray, colliders: ColliderAr
     return depth_per_triangle
 
 
+def warm_up_mesh_depths() -> None:
+    """Compile mesh_depths' kernels (a bake times this as "jit warm-up", not as its first
+    frame's stats) on a tetrahedron and one triangle: the types a bake passes."""
+    tetrahedron = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], np.int32)
+    colliders = ColliderArrays(
+        mesh_points=tetrahedron, mesh_triangles=faces, triangle_mesh=np.zeros(4, np.int32),
+        mesh_margin=np.full(1, 0.01, np.float32), mesh_friction=np.zeros(1, np.float32),
+    )
+    mesh_depths(np.array([[0.2, 0.2, 0.2], [2, 0, 0], [0, 2, 0]], np.float64), faces[:1], colliders)
+
+
 def face_penetration(
     points: np.ndarray, triangles: np.ndarray, colliders: ColliderArrays, meters_per_unit: float, thickness_m: float
 ) -> FacePenetration:
