@@ -249,16 +249,24 @@ def _frame_stats_fields(stats: dict) -> dict[str, float]:
     }
 
 
+def _particles_as_vertices(solver: Integrator, stats: dict) -> None:
+    """The particles a frame's stats name, as the mesh's vertex numbers (the cook may have
+    renumbered the particles for locality; reports and messages speak of the input mesh)."""
+    for key in ("fastest_particle", "nonfinite_particle"):
+        if stats.get(key, -1) >= 0:
+            stats[key] = solver.model.fabric.vertex_of(stats[key])
+
+
 def _check_stable(scene: Scene, frame: int, solver: Integrator, stats: dict) -> None:
     name = solver.model.name
     if not stats["finite"]:
         raise UnstableError(
             f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle "
-            f"{solver.model.fabric.vertex_of(stats['nonfinite_particle'])} is NaN or infinite; lower the time step (raise solver.frequency) or check the inputs"
+            f"{stats['nonfinite_particle']} is NaN or infinite; lower the time step (raise solver.frequency) or check the inputs"
         )
     if stats["max_speed"] > scene.solver.max_speed:
         raise UnstableError(
-            f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle {solver.model.fabric.vertex_of(stats['fastest_particle'])} "
+            f"{scene.path.name}: bake went unstable at frame {frame}: cloth '{name}' particle {stats['fastest_particle']} "
             f"moves at {stats['max_speed']:.3g} m/s (limit solver.max_speed = {scene.solver.max_speed:g}); "
             "raise solver.frequency or damping"
         )
@@ -365,6 +373,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
                     for solver, meter, plan in zip(solvers, meters, plans):
                         cloth_stats = meter.measure(plan.h, options.percentiles, plan.end if options.penetration else None)
                         cloth_stats["asleep"] = solver.asleep  # asleep at the frame's end
+                        _particles_as_vertices(solver, cloth_stats)
                         cloth_stats.update(solver.frame_stats())  # e.g. the implicit solver's CG figures
                         per_cloth[solver.model.name] = cloth_stats
                     stats.per_frame.append({"frame": frame, "cloths": per_cloth})
