@@ -178,10 +178,11 @@ def test_collide_virtual_matches_reference():
     triangles = rng.integers(0, 40, (30, 3)).astype(np.int32)
     weights = f32([[1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
     virtual = np.hstack([np.repeat(triangles, 4, axis=0), np.tile(np.arange(4), 30)[:, None]]).astype(np.int32)
-    cur = cur0.copy()
-    collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, F32(20.0), F32(1.0), cur)
-    ref_cur, _ = ref.collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, 20.0, 1.0, cur0)
-    assert_close(cur, ref_cur, 1e-4, "cur")
-    fixed = (prev0[:, 3] == 0) | (cur0[:, 3] == 0)
-    np.testing.assert_array_equal(cur[fixed], cur0[fixed])
-    assert np.abs(cur - cur0).max() > 1e-3
+    for continuous in (False, True):
+        cur = cur0.copy()
+        collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, continuous, F32(20.0), F32(1.0), cur)
+        ref_cur, _ = ref.collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, continuous, 20.0, 1.0, cur0)
+        assert_close(cur, ref_cur, 1e-4, f"cur (continuous {continuous})")
+        fixed = (prev0[:, 3] == 0) | (cur0[:, 3] == 0)
+        np.testing.assert_array_equal(cur[fixed], cur0[fixed])
+        assert np.abs(cur - cur0).max() > 1e-3

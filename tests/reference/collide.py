@@ -179,7 +179,7 @@ def collide_particles(shapes_group, mesh, frame, prev, continuous, mass_scale, m
 collide_particles_parallel = collide_particles
 
 
-def collide_virtual(virtual, weights, shapes_group, mesh, frame, prev, mass_scale, meters_per_unit, cur):
+def collide_virtual(virtual, weights, shapes_group, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
     cur = np.asarray(cur, np.float64).copy()
     prev = np.asarray(prev, np.float64).copy()
     for row in virtual:
@@ -188,12 +188,18 @@ def collide_virtual(virtual, weights, shapes_group, mesh, frame, prev, mass_scal
         if not movable.any():
             continue
         p, q = w @ cur[index, :3], w @ prev[index, :3]
+        moved = np.zeros(3)
+        if continuous:
+            _, *end = continuous_contact(*p, *q, shapes_group[0], shapes_group[1])
+            moved = np.array(end) - p
+            p = p + moved
         found = _contacts(p, q, shapes_group, mesh, frame)
-        if not found:
+        if not found and not moved.any():
             continue
-        correction, push = _resolve(p, q, found)
+        correction, push = _resolve(p, q, found) if found else (np.zeros(3), np.zeros(3))
+        correction = correction + moved
         share = np.where(movable, w, 0.0) / np.sum(np.where(movable, w, 0.0) ** 2)
-        scale = 1.0 / (1 + mass_scale * (push @ push) * meters_per_unit**2) if mass_scale > 0 else 1.0
+        scale = 1.0 / (1 + mass_scale * (push @ push) * meters_per_unit**2) if mass_scale > 0 and found else 1.0
         for k in range(3):
             if movable[k]:
                 cur[index[k], :3] += correction * share[k]

@@ -321,9 +321,10 @@ collide_particles, collide_particles_parallel = collide_particles_for(True, True
 
 
 @kernel
-def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, meters_per_unit, cur):
+def collide_virtual(virtual, weights, shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
     """Virtual particles (rows i, j, k, weight row): the weighted point of three particles
-    collides like a particle (discrete contacts, friction, mass scale) and its correction c is
+    collides like a particle (continuous collision when ``continuous``, discrete contacts,
+    friction, mass scale) and its correction c is
     shared out as x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
     a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
     order, each seeing the corrections before it; the fabric orders them in conflict-free
@@ -336,6 +337,7 @@ def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, met
     capsules = capsule_data.shape[0] > 0
     convexes = offsets.shape[0] > 1
     meshes = triangle_data.shape[0] > 0
+    continuous = continuous and (spheres or capsules)
     for r in range(virtual.shape[0]):
         a = virtual[r, 0]
         b = virtual[r, 1]
@@ -355,6 +357,17 @@ def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, met
         qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
         qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
         qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
+        # the point's own continuous move (to where it hit, on the side it came from) is part
+        # of its correction, shared out like the push-out
+        mx = my = mz = zero
+        if continuous:
+            _, rx, ry, rz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
+            mx = rx - px
+            my = ry - py
+            mz = rz - pz
+            px = rx
+            py = ry
+            pz = rz
         total = (0, zero, zero, zero, zero, zero, zero, zero)
         if spheres:
             total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
@@ -366,20 +379,24 @@ def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, met
             found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
             total = _add_contacts(total, _mesh_summary(found))
         count, dx, dy, dz, sx, sy, sz, budget = total
-        if count == 0:
+        if count == 0 and mx == zero and my == zero and mz == zero:
             continue
-        inv = one / np.float32(count)
-        dx *= inv
-        dy *= inv
-        dz *= inv
-        fx, fy, fz = friction_correction(
-            px + dx, py + dy, pz + dz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv
-        )
-        cx = dx + fx
-        cy = dy + fy
-        cz = dz + fz
+        cx = mx
+        cy = my
+        cz = mz
         scale = one
-        if mass_scale > 0.0:
+        if count > 0:
+            inv = one / np.float32(count)
+            dx *= inv
+            dy *= inv
+            dz *= inv
+            fx, fy, fz = friction_correction(
+                px + dx, py + dy, pz + dz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv
+            )
+            cx += dx + fx
+            cy += dy + fy
+            cz += dz + fz
+        if count > 0 and mass_scale > 0.0:
             square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
             scale = one / (one + mass_scale * square)
         for particle, m in ((a, ma), (b, mb), (c, mc)):
