@@ -75,7 +75,11 @@ class CollideStage(Stage):
 
     name = "collide"
 
-    def __init__(self, solver, face_points: bool = True):
+    def __init__(self, solver, face_points: bool = True, continuous: bool | None = None):
+        """``solver``: the cloth's integrator (model, state, config, environment, history).
+        The implicit and explicit integrators pose the colliders with this stage and respond
+        their own way (``groups``): they pass ``face_points=False`` and ``continuous=True``
+        (they have no discrete mode); None takes ``config.continuous_collision``."""
         super().__init__(solver)
         model = solver.model
         material = model.material
@@ -85,7 +89,7 @@ class CollideStage(Stage):
         self.friction = float(material.friction)  # for colliders that give no friction of their own
         self.mass_scale = real(material.collision_mass_scale)
         self.meters_per_unit = real(model.units_to_meters)
-        self.continuous = bool(solver.config.continuous_collision)
+        self.continuous = bool(solver.config.continuous_collision if continuous is None else continuous)
         # thread start-up costs more than it saves on small cloths; results are identical
         self.parallel = model.particle_count >= solver.config.parallel_threshold and numba.config.NUMBA_NUM_THREADS > 1
         self.kernel = collide_particles_parallel if self.parallel else collide_particles  # until begin_frame picks
@@ -310,7 +314,7 @@ class CollideStage(Stage):
             pack_triangles(self.mesh_start, self.mesh_end, self.triangles, self.triangle_params, self.triangle_data)
             self._mesh_packed = self.mesh_still
 
-    def _groups(self, empty: bool = False) -> tuple[tuple, tuple]:
+    def groups(self, empty: bool = False) -> tuple[tuple, tuple]:
         """The kernels' (shapes, mesh) argument groups; zero-length views when ``empty``."""
         if empty:
             shapes = (
@@ -322,7 +326,7 @@ class CollideStage(Stage):
 
     def warm_up(self) -> None:
         state = self.solver.state
-        shapes, mesh = self._groups(empty=True)
+        shapes, mesh = self.groups(empty=True)
         # the kernel begin_frame will pick: a scene's collider kinds are the same at every time
         colliders = self.solver.environment.colliders(0.0)
         self.kernel = self._kernel_for(colliders)
@@ -336,6 +340,12 @@ class CollideStage(Stage):
                 self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale,
                 self.meters_per_unit, state.cur[:0],
             )
+        self.warm_up_motion()
+
+    def warm_up_motion(self) -> None:
+        """Compile the kernels that pose and pack the colliders and grid the meshes (the
+        part of ``warm_up`` the implicit and explicit integrators use)."""
+        colliders = self.solver.environment.colliders(0.0)
         spheres, points, planes = self.sphere_start[:0], self.mesh_start[:0], self.plane_end[:0]
         pose_spheres(spheres, spheres, self.frame, 0.0, 0, spheres)
         pack_spheres(spheres, spheres, self.sphere_colliders[:0], self.sphere_params[:0], self.sphere_data[:0])
@@ -361,7 +371,7 @@ class CollideStage(Stage):
     def run(self, iteration: Iteration) -> None:
         state = self.solver.state
         self.pose(iteration)
-        shapes, mesh = self._groups()
+        shapes, mesh = self.groups()
         self.kernel(shapes, mesh, self.frame, state.prev, self.continuous, self.mass_scale, self.meters_per_unit, state.cur)
         # with continuous collision the face points sweep twice: a thin collider crossing a
         # face presses several of its points at once, and one Gauss-Seidel sweep leaves the

@@ -205,3 +205,21 @@ def collide_virtual(virtual, weights, shapes_group, mesh, frame, prev, continuou
                 cur[index[k], :3] += correction * share[k]
                 cur[index[k], 3] *= 1 + (scale - 1) * w[k]
     return cur, prev
+
+
+def point_correction(p, q, shapes_group, mesh, frame, continuous):
+    """(count, move (3,), average push (3,), average shift (3,), average budget) of the point
+    moving q -> p: kernels.collide.point_correction, float64."""
+    p, q = np.asarray(p, np.float64), np.asarray(q, np.float64)
+    moved = np.zeros(3)
+    if continuous:
+        _, *end = continuous_contact(*p, *q, shapes_group[0], shapes_group[1])
+        moved = np.array(end) - p
+    found = _contacts(p + moved, q, shapes_group, mesh, frame)
+    if not found:
+        return 0, moved, np.zeros(3), np.zeros(3), 0.0
+    count = len(found)
+    push = sum((c[0] for c in found), np.zeros(3)) / count
+    shift = sum((c[1] for c in found), np.zeros(3)) / count
+    budget = sum(c[2] * np.linalg.norm(c[0]) for c in found) / count
+    return count, moved, push, shift, budget

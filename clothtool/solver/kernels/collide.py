@@ -243,6 +243,50 @@ def _mesh_summary(found):
     return 1, ex, ey, ez, tx, ty, tz, mu * np.sqrt(ex * ex + ey * ey + ez * ez)
 
 
+@kernel(inline="always")
+def point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous):
+    """The collision geometry of one point moving q -> p over the iteration, for integrators
+    that make their own response (implicit, explicit): (count, mx, my, mz, dx, dy, dz, sx,
+    sy, sz, budget). m is the continuous move (to where it hit a sphere or capsule on the side
+    it came from; zero when ``continuous`` is off or it hit nothing), then d, s and budget
+    are the AVERAGE push-out, surface displacement and friction budget (mu * |push-out|) of
+    the ``count`` discrete contacts at p + m: steps 1-2 of the module docstring, as the
+    position-based particle kernel computes them."""
+    zero = np.float32(0.0)
+    sphere_data, capsule_data, planes, offsets, convex_data = shapes
+    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
+    mx = my = mz = zero
+    if continuous and (sphere_data.shape[0] > 0 or capsule_data.shape[0] > 0):
+        _, rx, ry, rz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
+        mx = rx - px
+        my = ry - py
+        mz = rz - pz
+        px = rx
+        py = ry
+        pz = rz
+    total = (0, zero, zero, zero, zero, zero, zero, zero)
+    if sphere_data.shape[0] > 0:
+        total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
+    if capsule_data.shape[0] > 0:
+        total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
+    if offsets.shape[0] > 1:
+        total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
+    if triangle_data.shape[0] > 0:
+        found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
+        total = _add_contacts(total, _mesh_summary(found))
+    count, dx, dy, dz, sx, sy, sz, budget = total
+    if count > 0:
+        inv = np.float32(1.0) / np.float32(count)
+        dx *= inv
+        dy *= inv
+        dz *= inv
+        sx *= inv
+        sy *= inv
+        sz *= inv
+        budget *= inv
+    return count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget
+
+
 def _make_collide_particles(with_meshes: bool, with_convexes: bool, with_continuous: bool):
     """The particle kernel's source with the code of mesh colliders, convex colliders
     (planes included) and continuous collision each kept or left out: the flags are closure
