@@ -177,7 +177,10 @@ def _slab_sweep(half=(0.1, 0.06, 0.005)) -> Sweep:
         return crossed & inside
 
     def depth(points):
-        return (half + THICKNESS - np.abs(points)).min(axis=1)
+        # the box's exact signed distance (rounded at its edges and corners, as a margin is)
+        q = np.abs(points) - half
+        signed = np.linalg.norm(np.maximum(q, 0.0), axis=1) + np.minimum(q.max(axis=1), 0.0)
+        return THICKNESS - signed
 
     return Sweep("mesh slab", arrays, to_local, core, depth)
 

@@ -367,21 +367,14 @@ collide_particles, collide_particles_parallel = collide_particles_for(True, True
 @kernel
 def collide_virtual(virtual, weights, shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
     """Virtual particles (rows i, j, k, weight row): the weighted point of three particles
-    collides like a particle (continuous collision when ``continuous``, discrete contacts,
-    friction, mass scale) and its correction c is
-    shared out as x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
+    collides like a particle (``point_correction``: continuous collision when ``continuous``,
+    discrete contacts; friction, mass scale) and its correction c is shared out as
+    x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
     a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
     order, each seeing the corrections before it; the fabric orders them in conflict-free
     batches, so this equals solving each batch at once."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
-    sphere_data, capsule_data, planes, offsets, convex_data = shapes
-    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
-    spheres = sphere_data.shape[0] > 0
-    capsules = capsule_data.shape[0] > 0
-    convexes = offsets.shape[0] > 1
-    meshes = triangle_data.shape[0] > 0
-    continuous = continuous and (spheres or capsules)
     for r in range(virtual.shape[0]):
         a = virtual[r, 0]
         b = virtual[r, 1]
@@ -403,26 +396,9 @@ def collide_virtual(virtual, weights, shapes, mesh, frame, prev, continuous, mas
         qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
         # the point's own continuous move (to where it hit, on the side it came from) is part
         # of its correction, shared out like the push-out
-        mx = my = mz = zero
-        if continuous:
-            _, rx, ry, rz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
-            mx = rx - px
-            my = ry - py
-            mz = rz - pz
-            px = rx
-            py = ry
-            pz = rz
-        total = (0, zero, zero, zero, zero, zero, zero, zero)
-        if spheres:
-            total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
-        if capsules:
-            total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
-        if convexes:
-            total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
-        if meshes:
-            found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
-            total = _add_contacts(total, _mesh_summary(found))
-        count, dx, dy, dz, sx, sy, sz, budget = total
+        count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = point_correction(
+            px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous
+        )
         if count == 0 and mx == zero and my == zero and mz == zero:
             continue
         cx = mx
@@ -430,12 +406,8 @@ def collide_virtual(virtual, weights, shapes, mesh, frame, prev, continuous, mas
         cz = mz
         scale = one
         if count > 0:
-            inv = one / np.float32(count)
-            dx *= inv
-            dy *= inv
-            dz *= inv
             fx, fy, fz = friction_correction(
-                px + dx, py + dy, pz + dz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv
+                px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
             )
             cx += dx + fx
             cy += dy + fy
