@@ -136,7 +136,8 @@ class SolverConfig:
     face_collision: position-based: faces collide with spheres and capsules, not only
         particles: triangles too large for the smallest one get collision points inside
         (clothtool.solver.facepoints), so no face sinks into a collider between particles.
-        With continuous_collision the points collide continuously too.
+        Not with continuous_collision (a sheet swept over a rod thinner than its triangles
+        wraps flat faces round it, and their points' conflicting corrections inject speed).
     """
 
     frequency: float = 300.0

@@ -285,39 +285,3 @@ def test_the_criterion_sees_tunnelling(name, fabric):
     after = sweep.to_local(solver.world_points().astype(np.float64)[free], 1.0 / FPS)
     assert sweep.core(before, after).sum() >= (3 if name == "capsule" else 1)
 
-
-@pytest.mark.parametrize("frequency", [300.0, 1200.0, 4800.0])
-@pytest.mark.parametrize("name", ["capsule", "rotating tapered capsule"])
-def test_face_points_never_tunnel(name, frequency):
-    """With continuous collision the position-based solver's face points (collision points
-    inside faces too large for the collider) collide continuously too: none of their paths
-    goes through the capsule's middle (within half its radius of the axis), so the faces are
-    not dragged through it. (A flat 3 cm triangle wrapped round a 5 mm rod cannot stay
-    outside it everywhere: points sink up to 4 mm, which is what the face points limit, not
-    what they prevent. Without face points 14-65 of their paths cross the middle.)"""
-    sweep = SWEEPS[name]
-    fabric = sheet()
-    solver = make("pbd", fabric, sweep, frequency)
-    stage = solver.stages[solver.stage_names.index("collide")]
-    plan = solver.plan_frame(1, 0.0, 1.0 / FPS)
-    assert stage.face_points > 0
-
-    def face_points(t):
-        rows = stage.virtual[-stage.face_points:]
-        weights = stage.virtual_weights[rows[:, 3]].astype(np.float64)
-        corners = solver.world_points().astype(np.float64)[rows[:, :3]]
-        return sweep.to_local(np.einsum("ij,ijk->ik", weights, corners), t)
-
-    before, tunnelled, frame = face_points(0.0), 0, 1
-    time = 0.0
-    while _z(time) < END_Z:
-        if frame > 1:
-            plan = solver.plan_frame(frame, (frame - 1) / FPS, 1.0 / FPS)
-        for index in range(plan.iterations):
-            solver.iterate(solver.iteration(plan, index))
-            time = plan.iteration_end(index)
-            after = face_points(time)
-            tunnelled += int(sweep.core(before, after, 0.5).sum())
-            before = after
-        frame += 1
-    assert tunnelled == 0

@@ -30,13 +30,19 @@ def collide_colliders(shapes, mesh, frame, h, cur, prev, velocity):
             surface = shift / h
         else:
             mu, surface = 0.0, (target - q) / h
-        cur[i, :3] = target
-        r = velocity[i] - surface
-        rn = float(r @ normal)
-        if rn < 0.0:
-            tangent = r - rn * normal
-            slide = float(np.linalg.norm(tangent))
-            keep = max(0.0, 1.0 - mu * abs(rn) / slide) if slide > 0.0 else 0.0
-            velocity[i] = surface + keep * tangent
-        prev[i, :3] = cur[i, :3] - h * velocity[i]
+        _respond(i, target, normal, surface, mu, h, cur, prev, velocity)
     return cur, prev, velocity
+
+
+def _respond(i, target, normal, surface, mu, h, cur, prev, velocity):
+    """Apply one contact to particle i in place (float64 arrays): move to ``target``, remove
+    the inward relative normal velocity, Coulomb friction, prev = x - h v."""
+    cur[i, :3] = target
+    r = velocity[i] - surface
+    rn = float(r @ normal)
+    if rn < 0.0:
+        tangent = r - rn * normal
+        slide = float(np.linalg.norm(tangent))
+        keep = max(0.0, 1.0 - mu * abs(rn) / slide) if slide > 0.0 else 0.0
+        velocity[i] = surface + keep * tangent
+    prev[i, :3] = cur[i, :3] - h * velocity[i]
