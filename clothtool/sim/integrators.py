@@ -66,6 +66,7 @@ CAPABILITIES = {
     "attachments": "pinned particles that follow an animated body (cloth.NAME.attach)",
     "motion": "painted max-distance motion constraints (the fabric's max distance)",
     "separation": "backstop separation spheres (cloth.NAME.backstop)",
+    "collision": "collision with the scene's colliders ([[collider]] tables)",
     "continuous_collision": "continuous collision (solver.continuous_collision)",
     "self_collision": "self-collision (solver.self_collision)",
     "cloth_collision": "cloth-cloth collision (solver.cloth_collision)",
@@ -92,11 +93,13 @@ _FORCES_HOLD = "the stretch forces and the strain limit hold the cloth; tethers 
 REGISTRY: dict[str, IntegratorSpec] = {
     "pbd": IntegratorSpec("pbd", "clothtool.solver.cloth", "ClothSolver", frozenset(CAPABILITIES)),
     "implicit": IntegratorSpec(
-        "implicit", "clothtool.integrators.implicit.solver", "ImplicitClothSolver", frozenset({"motion"}),
+        "implicit", "clothtool.integrators.implicit.solver", "ImplicitClothSolver",
+        frozenset({"motion", "collision", "continuous_collision"}),
         {"tethers": _FORCES_HOLD},
     ),
     "explicit": IntegratorSpec(
-        "explicit", "clothtool.integrators.explicit.solver", "ExplicitClothSolver", frozenset(),
+        "explicit", "clothtool.integrators.explicit.solver", "ExplicitClothSolver",
+        frozenset({"collision", "continuous_collision"}),
         {"tethers": "spring forces hold the cloth; tethers are a position-based device"},
     ),
 }
@@ -112,6 +115,8 @@ def requested_capabilities(scene: "Scene") -> dict[str, str]:
     """capability -> the first place in ``scene`` that asks for it."""
     asked: dict[str, str] = {}
     solver = scene.solver
+    if scene.colliders is not None and len(scene.colliders):
+        asked["collision"] = "the scene's colliders"
     if solver.continuous_collision and scene.colliders is not None and len(scene.colliders):
         asked["continuous_collision"] = "solver.continuous_collision = true"
     if solver.self_collision:

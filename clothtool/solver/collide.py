@@ -89,7 +89,11 @@ class CollideStage(Stage):
 
     name = "collide"
 
-    def __init__(self, solver):
+    def __init__(self, solver, face_points: bool = True, continuous: bool | None = None):
+        """``solver``: the cloth's integrator (model, state, config, environment, history).
+        The implicit and explicit integrators pose the colliders with this stage and respond
+        their own way (``groups``): they pass ``face_points=False`` and ``continuous=True``
+        (they have no discrete mode); None takes ``config.continuous_collision``."""
         super().__init__(solver)
         model = solver.model
         material = model.material
@@ -99,20 +103,22 @@ class CollideStage(Stage):
         self.friction = float(material.friction)  # for colliders that give no friction of their own
         self.mass_scale = real(material.collision_mass_scale)
         self.meters_per_unit = real(model.units_to_meters)
-        self.continuous = bool(solver.config.continuous_collision)
+        self.continuous = bool(solver.config.continuous_collision if continuous is None else continuous)
         # thread start-up costs more than it saves on small cloths; results are identical
         self.parallel = model.particle_count >= solver.config.parallel_threshold and numba.config.NUMBA_NUM_THREADS > 1
         self.kernel = collide_particles_parallel if self.parallel else collide_particles  # until begin_frame picks
         fabric = model.fabric
         self.virtual = np.ascontiguousarray(fabric.virtual_particles, I32)
         self.virtual_weights = np.ascontiguousarray(fabric.virtual_particle_weights, real)
-        # face points collide discretely: a thin collider crossing more than its width in an
-        # iteration (what continuous collision is for) would push them out its far side,
-        # dragging the faces through it, so with continuous collision particles alone collide
-        self.face_collision = bool(solver.config.face_collision) and not self.continuous
+        # with continuous collision particles alone collide: face points (up to 25 per
+        # triangle against a thin rod) collide continuously (collide_virtual), but a sheet
+        # swept over a rod thinner than its triangles wraps flat faces round it and their
+        # points' conflicting corrections inject speed (vmax 104 m/s for a 10 m/s rod in
+        # tests/physics/test_hard_collision.py); the fabric's own virtual particles do collide
+        self.face_collision = bool(solver.config.face_collision) and face_points and not self.continuous
         self.face_points = 0  # collision points added inside faces (see _add_face_points)
         # faces against mesh colliders' points: their contacts handle crossings themselves
-        self.mesh_faces = bool(solver.config.face_collision)
+        self.mesh_faces = bool(solver.config.face_collision) and face_points
         self.cloth_triangles = np.ascontiguousarray(model.triangles, I32)
         self.sample_spacing = sample_spacing(model.rest_pos, self.cloth_triangles)
         self.owners = np.zeros((0, 4), I32)  # see clothtool.solver.meshfaces.collider_owners
@@ -382,7 +388,11 @@ class CollideStage(Stage):
         lines.append("{collide}(" + groups + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
         if self.virtual.shape[0]:
             lines.append("{collide_virtual}({virtual}, {virtual_weights}, " + groups
-                         + ", {frames}[it], prev, {mass_scale}, {meters_per_unit}, cur)")
+                         + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+        if self.mesh_faces and self.triangle_data.shape[0]:
+            lines.append("{collide_mesh_faces}({cloth_triangles}, {owners}, {triangle_data}, {cell_start}, {cell_items}, "
+                         "{cell_ranges}, {grid}, {frames}[it], prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
+                         "{face_record}, cur)")
         args = {
             "frames": self.frames, "alpha0": self.alpha0, "alpha1": self.alpha1, "alpha_step": self.alpha_step,
             "pose_mesh": self.pose_mesh, "sphere_world0": self.sphere_world[0], "sphere_world1": self.sphere_world[1],
@@ -397,13 +407,15 @@ class CollideStage(Stage):
             "triangle_data": self.triangle_data, "cell_start": self.cell_start, "cell_items": self.cell_items,
             "cell_ranges": self.cell_ranges, "grid": self.grid, "continuous": self.continuous,
             "mass_scale": self.mass_scale, "meters_per_unit": self.meters_per_unit, "virtual": self.virtual,
-            "virtual_weights": self.virtual_weights,
+            "virtual_weights": self.virtual_weights, "cloth_triangles": self.cloth_triangles, "owners": self.owners,
+            "face_margin": self.face_margin, "face_record": self.face_record,
         }
         used = _names_in(tuple(lines))
         kernels = {
             "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
             "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
             "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": collide_virtual,
+            "collide_mesh_faces": collide_mesh_faces,
         }
         return FusedCall(
             tuple(lines),
@@ -416,7 +428,7 @@ class CollideStage(Stage):
         if self.pose_mesh[0]:
             self._mesh_packed = self.mesh_still
 
-    def _groups(self, empty: bool = False) -> tuple[tuple, tuple]:
+    def groups(self, empty: bool = False) -> tuple[tuple, tuple]:
         """The kernels' (shapes, mesh) argument groups; zero-length views when ``empty``."""
         if empty:
             shapes = (
@@ -428,7 +440,7 @@ class CollideStage(Stage):
 
     def warm_up(self) -> None:
         state = self.solver.state
-        shapes, mesh = self._groups(empty=True)
+        shapes, mesh = self.groups(empty=True)
         # the kernel begin_frame will pick: a scene's collider kinds are the same at every time
         colliders = self.solver.environment.colliders(0.0)
         self.kernel = self._kernel_for(colliders)
@@ -439,9 +451,20 @@ class CollideStage(Stage):
         # begin_frame will add face points (face collision against spheres or capsules)
         if self.virtual.shape[0] or (self.face_collision and colliders.has_spheres_or_capsules):
             collide_virtual(
-                self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.mass_scale,
+                self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale,
                 self.meters_per_unit, state.cur[:0],
             )
+        if self.mesh_faces and colliders.mesh_triangles.shape[0]:
+            collide_mesh_faces(
+                self.cloth_triangles[:0], self.owners[:0], *mesh, self.frame, state.prev[:0], self.face_margin,
+                self.mass_scale, self.meters_per_unit, self.face_record, state.cur[:0],
+            )
+        self.warm_up_motion()
+
+    def warm_up_motion(self) -> None:
+        """Compile the kernels that pose and pack the colliders and grid the meshes (the
+        part of ``warm_up`` the implicit and explicit integrators use)."""
+        colliders = self.solver.environment.colliders(0.0)
         spheres, points, planes = self.sphere_start[:0], self.mesh_start[:0], self.plane_end[:0]
         pose_spheres(spheres, spheres, self.frame, 0.0, 0, spheres)
         pack_spheres(spheres, spheres, self.sphere_colliders[:0], self.sphere_params[:0], self.sphere_data[:0])
@@ -463,20 +486,15 @@ class CollideStage(Stage):
         grid_layout(bounds, 1.0, grid)
         grid_cell_ranges(bounds, grid, self.cell_ranges[:0])
         grid_fill(self.cell_ranges[:0], grid, self.cell_start.copy(), self.cell_items[:0])
-        if self.mesh_faces:
-            collide_mesh_faces(
-                self.cloth_triangles[:0], self.owners[:0], *mesh, self.frame, state.prev[:0], self.face_margin,
-                self.mass_scale, self.meters_per_unit, self.face_record, state.cur[:0],
-            )
 
     def run(self, iteration: Iteration) -> None:
         state = self.solver.state
         self.pose(iteration)
-        shapes, mesh = self._groups()
+        shapes, mesh = self.groups()
         self.kernel(shapes, mesh, self.frame, state.prev, self.continuous, self.mass_scale, self.meters_per_unit, state.cur)
         if self.virtual.shape[0]:
             collide_virtual(
-                self.virtual, self.virtual_weights, shapes, mesh, self.frame, state.prev, self.mass_scale,
+                self.virtual, self.virtual_weights, shapes, mesh, self.frame, state.prev, self.continuous, self.mass_scale,
                 self.meters_per_unit, state.cur,
             )
         if self.mesh_faces and self.triangle_data.shape[0]:

@@ -9,17 +9,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.integrators.explicit.kernels.explicit_collide import (
-    collide_capsules,
-    collide_convexes,
-    collide_spheres,
-    collide_triangles,
-)
+from clothtool.integrators.explicit.kernels.explicit_collide import collide_colliders
 from clothtool.integrators.explicit.kernels.explicit_integrate import symplectic_euler
 from clothtool.integrators.explicit.kernels.explicit_springs import spring_forces, spring_forces_sets
 from clothtool.integrators.explicit.kernels.explicit_wind import wind_forces
 from clothtool.mesh.shapes import grid
 from tests.kernels._data import F32, U, assert_close, f32, particles
+from tests.kernels.test_collide import moving_frame, scene, still_frame
 from tests.reference import explicit_collide as ref_collide
 from tests.reference import explicit_integrate as ref_integrate
 from tests.reference import explicit_springs as ref_springs
@@ -152,111 +148,53 @@ def test_symplectic_euler_matches_reference(seed):
 
 
 # ---------------------------------------------------------------------------- collisions
-def contact_particles(rng, n, spread=1.0):
-    cur, prev = particles(rng, n, pinned=0.15, extent=spread)
-    velocity = f32(rng.normal(0.0, 1.0, (n, 3)))
+def contact_particles(rng, n, speed=0.03):
+    """Particles around the shared collide tests' scene (tests/kernels/test_collide.py):
+    prev the substep's start, cur its end, some pinned (w = 0 in cur)."""
+    prev = np.empty((n, 4), np.float32)
+    prev[:, :3] = rng.uniform(-0.6, 0.6, (n, 3))
+    prev[:, 3] = 1.0
+    cur = prev.copy()
+    cur[:, :3] += rng.normal(0, speed, (n, 3))
+    cur[rng.random(n) < 0.1, 3] = 0.0
+    velocity = f32((cur[:, :3] - prev[:, :3]) / H + rng.normal(0.0, 0.5, (n, 3)))
     return cur, prev, velocity
 
 
-def check_collide(kernel, reference, args, cur, prev, velocity, atol=64 * U * 4.0):
+@pytest.mark.parametrize("frame", [still_frame(), moving_frame()], ids=["still", "moving"])
+@pytest.mark.parametrize("speed", [0.03, 0.3])
+def test_collide_colliders_matches_reference(frame, speed):
+    """Spheres, a tapered capsule, convexes and a mesh moving over the substep; at 0.3 per
+    substep the paths cross colliders whole (continuous collision)."""
+    rng = np.random.default_rng(30)
+    shapes, mesh = scene(rng, frame)
+    cur, prev, velocity = contact_particles(rng, 200, speed)
     got = [a.copy() for a in (cur, prev, velocity)]
-    kernel(*args, *got)
-    want = reference(*args, cur, prev, velocity)
+    collide_colliders(shapes, mesh, frame, H, *got)
+    want = ref_collide.collide_colliders(shapes, mesh, frame, H, cur, prev, velocity)
     for name, g, w in zip(("cur", "prev", "velocity"), got, want):
-        assert_close(g, w, atol, name)
+        scale = 1.0 if name != "velocity" else 1.0 / H
+        assert_close(g, w, 2e-4 * scale, name)
     pinned = cur[:, 3] == 0
-    np.testing.assert_array_equal(got[0][pinned], cur[pinned])
+    for before, after in zip((cur, prev, velocity), got):
+        np.testing.assert_array_equal(after[pinned], before[pinned])
     moved = np.abs(want[0][:, :3] - cur[:, :3].astype(np.float64)).max(axis=1) > 1e-6
-    assert moved.sum() >= 3  # contacts were exercised
-    return got
-
-
-def friction(rng, k):
-    return f32(rng.uniform(0.0, 1.0, k))
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_collide_spheres_matches_reference(seed):
-    rng = np.random.default_rng(30 + seed)
-    cur, prev, velocity = contact_particles(rng, 60)
-    center = f32(rng.uniform(-0.6, 0.6, (4, 3)))
-    radius = f32(rng.uniform(0.2, 0.5, 4))
-    spheres = np.array([0, 2, 3], np.int32)  # sphere 1 is a capsule end only
-    args = (center, radius, f32(rng.normal(0, 0.5, (4, 3))), f32(rng.normal(0, 0.1, 4)), spheres,
-            f32(rng.uniform(0.0, 0.05, 3)), friction(rng, 3), H)
-    got = check_collide(collide_spheres, ref_collide.collide_spheres, args, cur, prev, velocity)
-    # the last sphere's contacts end on its grown surface
-    d = np.linalg.norm(got[0][:, :3] - center[3], axis=1)
-    assert np.all(d[cur[:, 3] > 0] >= radius[3] + args[5][2] - 1e-5)
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_collide_tapered_capsules_matches_reference(seed):
-    rng = np.random.default_rng(40 + seed)
-    cur, prev, velocity = contact_particles(rng, 60)
-    center = f32(rng.uniform(-0.7, 0.7, (4, 3)))
-    radius = f32(rng.uniform(0.1, 0.45, 4))
-    capsules = np.array([[0, 1], [2, 3]], np.int32)
-    args = (center, radius, f32(rng.normal(0, 0.5, (4, 3))), f32(rng.normal(0, 0.1, 4)), capsules,
-            f32(rng.uniform(0.0, 0.05, 2)), friction(rng, 2), H)
-    check_collide(collide_capsules, ref_collide.collide_capsules, args, cur, prev, velocity, atol=1e-5)
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_collide_convexes_matches_reference(seed):
-    rng = np.random.default_rng(50 + seed)
-    cur, prev, velocity = contact_particles(rng, 60)
-    # a box of 6 planes (normals scaled: the kernel normalises) and a single ground plane
-    normals = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], np.float64)
-    half = rng.uniform(0.3, 0.6, 3)
-    box = np.concatenate([normals * 2.0, (np.repeat(half, 2) * 2.0)[:, None]], axis=1)
-    ground = np.array([[0.0, 1.0, 0.2, -0.5]])
-    plane = f32(np.concatenate([box, ground]))
-    offsets = np.array([0, 6, 7], np.int32)
-    args = (plane, f32(rng.normal(0, 0.3, (7, 4))), offsets, f32(rng.uniform(0.0, 0.05, 2)), friction(rng, 2), H)
-    check_collide(collide_convexes, ref_collide.collide_convexes, args, cur, prev, velocity)
-
-
-@pytest.mark.parametrize("seed", range(3))
-def test_collide_triangles_matches_reference(seed):
-    """Two meshes of separate random triangles (no shared edges, so no ties between equally
-    close triangles)."""
-    rng = np.random.default_rng(60 + seed)
-    cur, prev, velocity = contact_particles(rng, 50)
-    t = 8
-    anchor = rng.uniform(-0.8, 0.8, (t, 1, 3))
-    points = f32((anchor + rng.normal(0.0, 0.4, (t, 3, 3))).reshape(-1, 3))
-    triangles = np.arange(3 * t, dtype=np.int32).reshape(t, 3)
-    offsets = np.array([0, 5, 8], np.int32)
-    args = (points, f32(rng.normal(0, 0.3, points.shape)), triangles, offsets, f32(rng.uniform(0.02, 0.1, 2)),
-            friction(rng, 2), H)
-    check_collide(collide_triangles, ref_collide.collide_triangles, args, cur, prev, velocity, atol=1e-5)
+    assert moved.sum() >= 20  # contacts were exercised
 
 
 def test_contact_response_inelastic_with_coulomb_friction():
     """A particle 1 cm inside a ground plane (y = 0, margin 0), falling at 1 m/s and sliding at
     3 m/s, mu = 0.5: it ends on the plane, its normal velocity is gone and its tangential
     speed drops by mu * 1 = 0.5 m/s; sliding at 0.3 m/s instead it sticks."""
-    plane = f32([[0.0, 1.0, 0.0, 0.0]])
-    args = (plane, f32(np.zeros((1, 4))), np.array([0, 1], np.int32), f32([0.0]), f32([0.5]), H)
+    e = np.zeros((0, 9), np.float32), np.zeros((0, 17), np.float32)
+    shapes = (*e, f32([[0.0, 1.0, 0.0, 0.0]]), np.array([0, 1], np.int32), f32([[0.0, 0.5, 0.0, 0.0, 0.0]]))
+    _, mesh = scene(np.random.default_rng(0), still_frame())
+    mesh = (mesh[0][:0], *mesh[1:])
     for slide, expected in ((3.0, 2.5), (0.3, 0.0)):
         cur = f32([[0.2, -0.01, 0.0, 1.0]])
-        prev = cur.copy()
+        prev = f32([[0.2, 0.0, 0.0, 1.0]])
         velocity = f32([[slide, -1.0, 0.0]])
-        collide_convexes(*args, cur, prev, velocity)
+        collide_colliders(shapes, mesh, still_frame(), H, cur, prev, velocity)
         np.testing.assert_allclose(cur[0, :3], [0.2, 0.0, 0.0], atol=1e-7)
         np.testing.assert_allclose(velocity[0], [expected, 0.0, 0.0], atol=1e-6)
         np.testing.assert_allclose(prev[0, :3], cur[0, :3] - H * velocity[0], atol=1e-7)
-
-
-def test_empty_inputs_leave_the_state_alone():
-    rng = np.random.default_rng(70)
-    cur, prev, velocity = contact_particles(rng, 10)
-    got = [a.copy() for a in (cur, prev, velocity)]
-    e3, e1, i1 = np.zeros((0, 3), np.float32), np.zeros(0, np.float32), np.zeros(0, np.int32)
-    collide_spheres(e3, e1, e3, e1, i1, e1, e1, H, *got)
-    collide_capsules(e3, e1, e3, e1, np.zeros((0, 2), np.int32), e1, e1, H, *got)
-    collide_convexes(np.zeros((0, 4), np.float32), np.zeros((0, 4), np.float32), np.zeros(1, np.int32), e1, e1, H, *got)
-    collide_triangles(e3, e3, np.zeros((0, 3), np.int32), np.zeros(1, np.int32), e1, e1, H, *got)
-    for before, after in zip((cur, prev, velocity), got):
-        np.testing.assert_array_equal(after, before)

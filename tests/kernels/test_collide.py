@@ -17,6 +17,7 @@ from clothtool.solver.kernels.collide import (
     convex_contacts,
     frame_motion,
     friction_correction,
+    point_correction,
     sphere_contacts,
 )
 from tests.kernels._data import F32, assert_close, f32
@@ -178,10 +179,37 @@ def test_collide_virtual_matches_reference():
     triangles = rng.integers(0, 40, (30, 3)).astype(np.int32)
     weights = f32([[1 / 3, 1 / 3, 1 / 3], [2 / 3, 1 / 6, 1 / 6], [1 / 6, 2 / 3, 1 / 6], [1 / 6, 1 / 6, 2 / 3]])
     virtual = np.hstack([np.repeat(triangles, 4, axis=0), np.tile(np.arange(4), 30)[:, None]]).astype(np.int32)
-    cur = cur0.copy()
-    collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, F32(20.0), F32(1.0), cur)
-    ref_cur, _ = ref.collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, 20.0, 1.0, cur0)
-    assert_close(cur, ref_cur, 1e-4, "cur")
-    fixed = (prev0[:, 3] == 0) | (cur0[:, 3] == 0)
-    np.testing.assert_array_equal(cur[fixed], cur0[fixed])
-    assert np.abs(cur - cur0).max() > 1e-3
+    for continuous in (False, True):
+        cur = cur0.copy()
+        collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, continuous, F32(20.0), F32(1.0), cur)
+        ref_cur, _ = ref.collide_virtual(virtual, weights, shapes, mesh, moving_frame(), prev0, continuous, 20.0, 1.0, cur0)
+        assert_close(cur, ref_cur, 1e-4, f"cur (continuous {continuous})")
+        fixed = (prev0[:, 3] == 0) | (cur0[:, 3] == 0)
+        np.testing.assert_array_equal(cur[fixed], cur0[fixed])
+        assert np.abs(cur - cur0).max() > 1e-3
+
+
+@pytest.mark.parametrize("frame", [still_frame(), moving_frame()], ids=["still", "moving"])
+@pytest.mark.parametrize("continuous", [False, True])
+def test_point_correction_matches_reference(frame, continuous):
+    """The contact summary the implicit and explicit integrators read: slow and fast paths
+    (0.3 per iteration crosses colliders whole) around every primitive kind."""
+    rng = np.random.default_rng(5)
+    shapes, mesh = scene(rng, frame)
+    hits = moves = 0
+    for speed in (0.01, 0.3):
+        cur, prev = particles(rng, 120, speed)
+        for i in range(cur.shape[0]):
+            got = point_correction(*cur[i, :3], *prev[i, :3], shapes, mesh, frame, continuous)
+            count, moved, push, shift, budget = ref.point_correction(cur[i, :3], prev[i, :3], shapes, mesh, frame, continuous)
+            assert_close(np.array(got[1:4]), moved, 2e-4, f"move {i}")
+            hits += count > 0
+            moves += bool(np.any(moved))
+            if np.any(moved):  # put exactly on the surface: a contact there is rounding's call
+                assert_close(np.add(got[1:4], got[4:7]), moved + push, 2e-4, f"correction {i}")
+                continue
+            assert got[0] == count, (i, got, count)
+            assert_close(np.array(got[4:10]), np.concatenate([push, shift]), 2e-4, f"push/shift {i}")
+            assert_close(np.array([got[10]]), np.array([budget]), 2e-4, f"budget {i}")
+    assert hits > 20
+    assert (moves > 5) == continuous

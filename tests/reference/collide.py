@@ -179,7 +179,7 @@ def collide_particles(shapes_group, mesh, frame, prev, continuous, mass_scale, m
 collide_particles_parallel = collide_particles
 
 
-def collide_virtual(virtual, weights, shapes_group, mesh, frame, prev, mass_scale, meters_per_unit, cur):
+def collide_virtual(virtual, weights, shapes_group, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
     cur = np.asarray(cur, np.float64).copy()
     prev = np.asarray(prev, np.float64).copy()
     for row in virtual:
@@ -188,14 +188,38 @@ def collide_virtual(virtual, weights, shapes_group, mesh, frame, prev, mass_scal
         if not movable.any():
             continue
         p, q = w @ cur[index, :3], w @ prev[index, :3]
+        moved = np.zeros(3)
+        if continuous:
+            _, *end = continuous_contact(*p, *q, shapes_group[0], shapes_group[1])
+            moved = np.array(end) - p
+            p = p + moved
         found = _contacts(p, q, shapes_group, mesh, frame)
-        if not found:
+        if not found and not moved.any():
             continue
-        correction, push = _resolve(p, q, found)
+        correction, push = _resolve(p, q, found) if found else (np.zeros(3), np.zeros(3))
+        correction = correction + moved
         share = np.where(movable, w, 0.0) / np.sum(np.where(movable, w, 0.0) ** 2)
-        scale = 1.0 / (1 + mass_scale * (push @ push) * meters_per_unit**2) if mass_scale > 0 else 1.0
+        scale = 1.0 / (1 + mass_scale * (push @ push) * meters_per_unit**2) if mass_scale > 0 and found else 1.0
         for k in range(3):
             if movable[k]:
                 cur[index[k], :3] += correction * share[k]
                 cur[index[k], 3] *= 1 + (scale - 1) * w[k]
     return cur, prev
+
+
+def point_correction(p, q, shapes_group, mesh, frame, continuous):
+    """(count, move (3,), average push (3,), average shift (3,), average budget) of the point
+    moving q -> p: kernels.collide.point_correction, float64."""
+    p, q = np.asarray(p, np.float64), np.asarray(q, np.float64)
+    moved = np.zeros(3)
+    if continuous:
+        _, *end = continuous_contact(*p, *q, shapes_group[0], shapes_group[1])
+        moved = np.array(end) - p
+    found = _contacts(p + moved, q, shapes_group, mesh, frame)
+    if not found:
+        return 0, moved, np.zeros(3), np.zeros(3), 0.0
+    count = len(found)
+    push = sum((c[0] for c in found), np.zeros(3)) / count
+    shift = sum((c[1] for c in found), np.zeros(3)) / count
+    budget = sum(c[2] * np.linalg.norm(c[0]) for c in found) / count
+    return count, moved, push, shift, budget

@@ -64,7 +64,7 @@ def triangle_contact(px, py, pz, qx, qy, qz, triangle_data, t):
         return miss
     p, q = _v(px, py, pz), _v(qx, qy, qz)
     h0 = n0 @ (q - start[0])
-    side = 1.0 if h0 >= 0 else -1.0
+    side = 1.0 if h0 >= -1e-3 * margin else -1.0
     height = side * (n1 @ (p - end[0]))
     u, v = closest_on_triangle(*p, *end.reshape(-1))
     closest = end[0] + u * (end[1] - end[0]) + v * (end[2] - end[0])

@@ -16,7 +16,8 @@ iterations and output methods), so the bake can run either. It simulates in worl
 refuses a tracked (local-space) cloth. It refuses, too, a substep longer than the stability
 limit (``stability``) unless ``config.force`` is set. Not modelled (its capabilities in
 ``clothtool.sim.integrators``; a scene that asks for them is refused): motion and separation
-constraints, continuous, self- and cloth-cloth collision, sleeping; tethers go unused.
+constraints, self- and cloth-cloth collision, sleeping; tethers go unused. Collision is
+always continuous (solver.continuous_collision is accepted and changes nothing).
 """
 
 from __future__ import annotations
@@ -26,13 +27,7 @@ import math
 import numpy as np
 
 from clothtool.errors import SceneError, UnstableError
-from clothtool.integrators.explicit.collider_motion import ColliderMotion, collider_sampler
-from clothtool.integrators.explicit.kernels.explicit_collide import (
-    collide_capsules,
-    collide_convexes,
-    collide_spheres,
-    collide_triangles,
-)
+from clothtool.integrators.explicit.kernels.explicit_collide import collide_colliders
 from clothtool.integrators.explicit.kernels.explicit_integrate import symplectic_euler
 from clothtool.integrators.explicit.kernels.explicit_springs import spring_forces, spring_forces_sets
 from clothtool.integrators.explicit.kernels.explicit_wind import wind_forces
@@ -40,6 +35,7 @@ from clothtool.integrators.explicit.springs import air_density, spring_damping, 
 from clothtool.integrators.explicit.stability import stability_report
 from clothtool.solver.air import corner_shares
 from clothtool.solver.cloth import ClothState
+from clothtool.solver.collide import CollideStage
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.sleep import SleepState
 
@@ -115,11 +111,10 @@ class ExplicitClothSolver:
         self.air_share = corner_shares(model).astype(dtype)
         self.drag = dtype.type(material.drag_coefficient)
         self.lift = dtype.type(material.lift_coefficient)
-        sampler = collider_sampler(environment)
+        # the colliders' motion over a frame, posed per substep: the position-based stage's
         self.colliders = None
-        if sampler is not None:
-            thickness = material.thickness / model.units_to_meters
-            self.colliders = ColliderMotion(sampler, model.name, thickness, material.friction, dtype)
+        if getattr(environment, "colliders", None) is not None:
+            self.colliders = CollideStage(self, face_points=False, continuous=True)
 
         self.stage_names = ["forces"] + (["wind"] if self.has_wind else []) + ["integrate"]
         self.stage_names += ["collide"] if self.colliders is not None else []
@@ -164,7 +159,7 @@ class ExplicitClothSolver:
         if not self._started:
             self._start(h)
         if self.colliders is not None:
-            self.colliders.begin_frame(time, plan.end - time)
+            self.colliders.begin_frame(plan)
         self._plan = plan
         return plan
 
@@ -194,13 +189,9 @@ class ExplicitClothSolver:
             wind_forces(model.triangles[:0], self.air_share, np.zeros(3, dtype), zero, zero, zero, cur, velocity, force)
         symplectic_euler(np.zeros(3, dtype), zero, force, cur, prev, velocity)
         if self.colliders is not None:
-            v4, v3, v1 = np.zeros((0, 4), dtype), np.zeros((0, 3), dtype), np.zeros(0, dtype)
-            no_offsets = np.zeros(1, np.int32)
-            state = (zero, cur, prev, velocity)
-            collide_spheres(v3, v1, v3, v1, np.zeros(0, np.int32), v1, v1, *state)
-            collide_capsules(v3, v1, v3, v1, np.zeros((0, 2), np.int32), v1, v1, *state)
-            collide_convexes(v4, v4, no_offsets, v1, v1, *state)
-            collide_triangles(v3, v3, np.zeros((0, 3), np.int32), no_offsets, v1, v1, *state)
+            self.colliders.warm_up_motion()
+            shapes, mesh = self.colliders.groups(empty=True)
+            collide_colliders(shapes, mesh, self.colliders.frame, zero, cur, prev, velocity)
 
     def run_frame(self, plan: FramePlan) -> bool:
         """Frames run iteration by iteration (the runner calls iteration/iterate)."""
@@ -219,7 +210,7 @@ class ExplicitClothSolver:
             symplectic_euler(self.gravity_state, h, self.force, self.state.cur, self.state.prev, self.velocity)
         if self.colliders is not None:
             with self.profiler.stage("collide"):
-                self._collide(iteration.alpha1, h)
+                self._collide(iteration, h)
 
     def step(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
         """Simulate one frame (all its substeps) on its own."""
@@ -241,31 +232,11 @@ class ExplicitClothSolver:
         air = self.environment.wind_at(time).astype(self.dtype)
         wind_forces(self.model.triangles, self.air_share, air, self.drag, self.lift, self.air_density, self.state.cur, self.velocity, self.force)
 
-    def _collide(self, alpha: float, h) -> None:
-        c = self.colliders
-        if not c.active:
-            return
-        c.at(alpha)
-        cur, prev, velocity = self.state.cur, self.state.prev, self.velocity
-        if c.spheres.size:
-            collide_spheres(
-                c.center.value, c.radius.value, c.center.rate, c.radius.rate, c.spheres, c.sphere_margin,
-                c.sphere_friction, h, cur, prev, velocity,
-            )
-        if c.capsules.size:
-            collide_capsules(
-                c.center.value, c.radius.value, c.center.rate, c.radius.rate, c.capsules, c.capsule_margin,
-                c.capsule_friction, h, cur, prev, velocity,
-            )
-        if c.plane_offsets.size > 1:
-            collide_convexes(
-                c.plane.value, c.plane.rate, c.plane_offsets, c.convex_margin, c.convex_friction, h, cur, prev, velocity
-            )
-        if c.triangles.size:
-            collide_triangles(
-                c.points.value, c.points.rate, c.triangles, c.mesh_offsets, c.mesh_margin, c.mesh_friction, h,
-                cur, prev, velocity,
-            )
+    def _collide(self, iteration: Iteration, h) -> None:
+        stage = self.colliders
+        stage.pose(iteration)
+        shapes, mesh = stage.groups()
+        collide_colliders(shapes, mesh, stage.frame, h, self.state.cur, self.state.prev, self.velocity)
 
     # ------------------------------------------------------------------ output
     def frame_stats(self) -> dict:

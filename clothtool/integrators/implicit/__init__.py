@@ -10,8 +10,9 @@ Modules, in the order a step uses them:
   df/dv) accumulated straight into the system matrix, and air drag and lift.
 * ``kernels.implicit_cg``: the block-sparse matrix-vector product and the filtered,
   block-Jacobi preconditioned conjugate gradient.
-* ``collision`` (packing) and ``kernels.implicit_collision``: collider distances and
-  Bridson's repulsion, friction, inelastic impulses and final robust pass.
+* ``kernels.implicit_collision``: Bridson's repulsion, friction, inelastic impulses and
+  final robust pass on the shared collision geometry (``clothtool.solver.collide`` poses
+  the colliders, ``clothtool.solver.kernels.collide`` measures the contacts).
 * ``kernels.implicit_strain``: strain limiting, the safety net of large steps.
 * ``solver``: ``ImplicitClothSolver``, which the bake drives like ``ClothSolver``.
 """

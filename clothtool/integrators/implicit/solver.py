@@ -43,7 +43,8 @@ solve, because one linear step per frame cannot turn an edge far (see ``kernels.
 
 Not done by this integrator (its capabilities in ``clothtool.sim.integrators``; a scene that
 asks for them is refused): local-space simulation (a cloth that follows a track), separation
-(backstop) spheres, continuous, self- and cloth-cloth collision, and sleeping; tethers go
+(backstop) spheres, self- and cloth-cloth collision, and sleeping (collision is always
+continuous: solver.continuous_collision is accepted and changes nothing); tethers go
 unused (the stiff stretch and the strain limit hold the cloth). Motion constraints are a
 projection after the solve: a particle outside its sphere is put back on it and loses its
 outward velocity; a radius of 0 fixes the particle at its rest position.
@@ -61,7 +62,6 @@ import numba
 import numpy as np
 
 from clothtool.errors import SceneError
-from clothtool.integrators.implicit.collision import pack_colliders
 from clothtool.integrators.implicit.kernels.implicit_cg import CHUNKS, block_jacobi, filtered_pcg
 from clothtool.integrators.implicit.kernels.implicit_collision import NO_CONTACT, collide_particles, project_particles
 from clothtool.integrators.implicit.kernels.implicit_energies import drag_terms, hinge_terms, triangle_terms
@@ -71,6 +71,7 @@ from clothtool.integrators.implicit.rest import build_rest_shape, triangle_corne
 from clothtool.profile import StageProfiler
 from clothtool.settings import SolverConfig
 from clothtool.solver.air import corner_shares
+from clothtool.solver.collide import CollideStage
 from clothtool.solver.environment import Environment
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.model import ClothModel
@@ -165,6 +166,7 @@ class ImplicitClothSolver:
         self.params = ImplicitParameters.of(model, config, environment)
         self.gravity = np.asarray(environment.gravity, np.float64)
         self.colliders = getattr(environment, "colliders", None)
+        self.history = None  # world space: the colliders are posed without a moving frame
         self.neighbours: list = []
         n = model.particle_count
         # below the threshold a step runs on one thread: a parallel region costs a thread
@@ -214,8 +216,8 @@ class ImplicitClothSolver:
         self.v_end = np.zeros((n, 3))  # the velocity kept at the end of the step
         self.contact = np.zeros((n, 8))  # last contact per particle (kernels.implicit_collision)
         self.contact[:, 0] = NO_CONTACT
-        self._collider_samples: dict[float, object] = {}
-        self._collider_sets = None
+        # the colliders' motion over a frame, posed per step: the position-based stage's
+        self.collide_stage = CollideStage(self, face_points=False, continuous=True) if self.colliders is not None else None
         self._plan: FramePlan | None = None
 
         self.last_cg = {"iterations": 0, "residual": 0.0}
@@ -255,12 +257,13 @@ class ImplicitClothSolver:
                      none3, none3, none3, none3, none3, self._partial)
         limit_strain(self.edges[:0], self.edge_rest_length[:0], self.inv_mass, no_order, no_offsets, none3, 1.0, 0.1,
                      1, none3, none3)
-        if self.colliders is not None:
-            sample = self.colliders(0.0)
-            start, end = pack_colliders(sample, sample, 1.0, self.params.thickness)
-            collide_particles(start, end, none3, self.mass[:0], self.free[:0], 0.0, 1.0, 1.0, 1, none3, none3,
+        if self.collide_stage is not None:
+            stage = self.collide_stage
+            stage.warm_up_motion()
+            shapes, mesh = stage.groups(empty=True)
+            collide_particles(shapes, mesh, stage.frame, none3, self.mass[:0], self.free[:0], 1.0, 1.0, 1, none3, none3,
                               self.contact[:0])
-            project_particles(end, none3, self.free[:0], 0.0, 1.0, none3, none3, self.contact[:0])
+            project_particles(shapes, mesh, stage.frame, none3, self.free[:0], 1.0, none3, none3, self.contact[:0])
 
     def plan_frame(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
         """Plan frame ``frame``, simulated from ``time`` to ``end_time`` (default time + frame_dt)
@@ -275,6 +278,8 @@ class ImplicitClothSolver:
             self._write_state(h)
         self._plan = plan
         self._frame = self._empty_frame_stats()
+        if self.collide_stage is not None:
+            self.collide_stage.begin_frame(plan)
         return plan
 
     def iteration(self, plan: FramePlan, index: int) -> Iteration:
@@ -296,7 +301,6 @@ class ImplicitClothSolver:
         plan = self._plan
         h = plan.h
         time = plan.time if iteration.index == 0 else plan.iteration_end(iteration.index - 1)
-        end = plan.iteration_end(iteration.index)
         self._read_state()
         with self._threads():
             with self.profiler.stage("forces"):
@@ -309,7 +313,7 @@ class ImplicitClothSolver:
             self.v_end[:] = self.v_mid
             if self.colliders is not None:
                 with self.profiler.stage("collide"):
-                    self.collide(h, time, end)
+                    self.collide(h, iteration)
             if self.params.strain_limit > 0:
                 with self.profiler.stage("strain-limit"):
                     self.limit_strain(h)
@@ -392,13 +396,13 @@ class ImplicitClothSolver:
         outward = np.maximum(np.sum(self.v_end[outside] * direction, axis=1), 0.0)
         self.v_end[outside] -= outward[:, None] * direction
 
-    def collide(self, h: float, time: float, end: float) -> None:
-        """Bridson's repulsion, friction and inelastic impulses (``collision``, steps 1-3),
-        with the colliders at the step's start ``time`` and ``end``."""
-        self._collider_sets = pack_colliders(self._colliders_at(time), self._colliders_at(end), h,
-                                             self.params.thickness, self.model.material.friction)
-        start, end = self._collider_sets
-        collide_particles(start, end, self.x, self.mass, self.free, self.params.thickness, self.params.repulsion, h,
+    def collide(self, h: float, iteration: Iteration) -> None:
+        """Bridson's repulsion, friction and inelastic impulses (``kernels.implicit_collision``,
+        steps 1-3), with the colliders posed for the step ``iteration``."""
+        stage = self.collide_stage
+        stage.pose(iteration)
+        shapes, mesh = stage.groups()
+        collide_particles(shapes, mesh, stage.frame, self.x, self.mass, self.free, self.params.repulsion, h,
                           COLLISION_PASSES, self.v_mid, self.v_end, self.contact)
 
     def limit_strain(self, h: float) -> None:
@@ -409,9 +413,11 @@ class ImplicitClothSolver:
         ))
 
     def project(self, h: float) -> None:
-        """The final robust pass (``collision``, step 4)."""
-        project_particles(self._collider_sets[1], self.x, self.free, self.params.thickness, h, self.v_mid, self.v_end,
-                          self.contact)
+        """The final robust pass (``kernels.implicit_collision``, step 4), with the colliders
+        as ``collide`` posed them."""
+        stage = self.collide_stage
+        shapes, mesh = stage.groups()
+        project_particles(shapes, mesh, stage.frame, self.x, self.free, h, self.v_mid, self.v_end, self.contact)
         self._frame["contacts"] = int(np.count_nonzero(self.contact[:, 0] < NO_CONTACT))
 
     def integrate(self, h: float) -> None:
@@ -437,14 +443,6 @@ class ImplicitClothSolver:
             yield
         finally:
             numba.set_num_threads(previous)
-
-    def _colliders_at(self, time: float):
-        sample = self._collider_samples.get(time)
-        if sample is None:
-            if len(self._collider_samples) > 2:
-                self._collider_samples.clear()
-            sample = self._collider_samples[time] = self.colliders(time)
-        return sample
 
     def _write_state(self, h: float) -> None:
         state = self.state

@@ -243,6 +243,50 @@ def _mesh_summary(found):
     return 1, ex, ey, ez, tx, ty, tz, mu * np.sqrt(ex * ex + ey * ey + ez * ez)
 
 
+@kernel(inline="always")
+def point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous):
+    """The collision geometry of one point moving q -> p over the iteration, for integrators
+    that make their own response (implicit, explicit): (count, mx, my, mz, dx, dy, dz, sx,
+    sy, sz, budget). m is the continuous move (to where it hit a sphere or capsule on the side
+    it came from; zero when ``continuous`` is off or it hit nothing), then d, s and budget
+    are the AVERAGE push-out, surface displacement and friction budget (mu * |push-out|) of
+    the ``count`` discrete contacts at p + m: steps 1-2 of the module docstring, as the
+    position-based particle kernel computes them."""
+    zero = np.float32(0.0)
+    sphere_data, capsule_data, planes, offsets, convex_data = shapes
+    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
+    mx = my = mz = zero
+    if continuous and (sphere_data.shape[0] > 0 or capsule_data.shape[0] > 0):
+        _, rx, ry, rz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
+        mx = rx - px
+        my = ry - py
+        mz = rz - pz
+        px = rx
+        py = ry
+        pz = rz
+    total = (0, zero, zero, zero, zero, zero, zero, zero)
+    if sphere_data.shape[0] > 0:
+        total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
+    if capsule_data.shape[0] > 0:
+        total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
+    if offsets.shape[0] > 1:
+        total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
+    if triangle_data.shape[0] > 0:
+        found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
+        total = _add_contacts(total, _mesh_summary(found))
+    count, dx, dy, dz, sx, sy, sz, budget = total
+    if count > 0:
+        inv = np.float32(1.0) / np.float32(count)
+        dx *= inv
+        dy *= inv
+        dz *= inv
+        sx *= inv
+        sy *= inv
+        sz *= inv
+        budget *= inv
+    return count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget
+
+
 def _make_collide_particles(with_meshes: bool, with_convexes: bool, with_continuous: bool):
     """The particle kernel's source with the code of mesh colliders, convex colliders
     (planes included) and continuous collision each kept or left out: the flags are closure
@@ -324,21 +368,16 @@ collide_particles, collide_particles_parallel = collide_particles_for(True, True
 
 
 @kernel
-def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, meters_per_unit, cur):
+def collide_virtual(virtual, weights, shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
     """Virtual particles (rows i, j, k, weight row): the weighted point of three particles
-    collides like a particle (discrete contacts, friction, mass scale) and its correction c is
-    shared out as x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
+    collides like a particle (``point_correction``: continuous collision when ``continuous``,
+    discrete contacts; friction, mass scale) and its correction c is shared out as
+    x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
     a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
     order, each seeing the corrections before it; the fabric orders them in conflict-free
     batches, so this equals solving each batch at once."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
-    sphere_data, capsule_data, planes, offsets, convex_data = shapes
-    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
-    spheres = sphere_data.shape[0] > 0
-    capsules = capsule_data.shape[0] > 0
-    convexes = offsets.shape[0] > 1
-    meshes = triangle_data.shape[0] > 0
     for r in range(virtual.shape[0]):
         a = virtual[r, 0]
         b = virtual[r, 1]
@@ -358,31 +397,25 @@ def collide_virtual(virtual, weights, shapes, mesh, frame, prev, mass_scale, met
         qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
         qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
         qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
-        total = (0, zero, zero, zero, zero, zero, zero, zero)
-        if spheres:
-            total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
-        if capsules:
-            total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
-        if convexes:
-            total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
-        if meshes:
-            found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
-            total = _add_contacts(total, _mesh_summary(found))
-        count, dx, dy, dz, sx, sy, sz, budget = total
-        if count == 0:
-            continue
-        inv = one / np.float32(count)
-        dx *= inv
-        dy *= inv
-        dz *= inv
-        fx, fy, fz = friction_correction(
-            px + dx, py + dy, pz + dz, qx, qy, qz, dx, dy, dz, sx * inv, sy * inv, sz * inv, budget * inv
+        # the point's own continuous move (to where it hit, on the side it came from) is part
+        # of its correction, shared out like the push-out
+        count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = point_correction(
+            px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous
         )
-        cx = dx + fx
-        cy = dy + fy
-        cz = dz + fz
+        if count == 0 and mx == zero and my == zero and mz == zero:
+            continue
+        cx = mx
+        cy = my
+        cz = mz
         scale = one
-        if mass_scale > 0.0:
+        if count > 0:
+            fx, fy, fz = friction_correction(
+                px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
+            )
+            cx += dx + fx
+            cy += dy + fy
+            cz += dz + fz
+        if count > 0 and mass_scale > 0.0:
             square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
             scale = one / (one + mass_scale * square)
         for particle, m in ((a, ma), (b, mb), (c, mc)):

@@ -2,7 +2,8 @@
 
 Side handling (meshes may be thin, open sheets): the side a particle belongs to is the side of
 the triangle's plane its *previous* position was on, relative to the triangle at the start of
-the iteration (s = +1 on the outward side, or on the plane; -1 behind it). At the end of the
+the iteration (s = +1 on the outward side, on the plane or behind it by less than 1e-3 of the
+margin, which is rounding of a particle sliding along the face; -1 farther behind it). At the end of the
 iteration, with h = s n . (p - a) the particle's height on that side:
 
 * h >= 0 (still on its side): a contact when the distance to the triangle's closest point q is
@@ -37,6 +38,7 @@ import numpy as np
 from clothtool._jit import kernel
 
 BARYCENTRIC_SLACK = np.float32(1e-5)
+SIDE_SLACK = np.float32(1e-3)  # of the margin: how far behind the plane still counts as its front
 
 
 @kernel
@@ -117,7 +119,9 @@ def triangle_contact_within(px, py, pz, qx, qy, qz, triangle_data, t, margin):
     if n1x == zero and n1y == zero and n1z == zero:
         return miss  # degenerate
     h0 = T[t, 18] * (qx - T[t, 0]) + T[t, 19] * (qy - T[t, 1]) + T[t, 20] * (qz - T[t, 2])
-    side = one if h0 >= zero else -one
+    # a particle grazing the plane (float noise of a box's face under a particle sliding
+    # along it) belongs to the outward side: it cannot have come from inside a closed mesh
+    side = one if h0 >= -SIDE_SLACK * margin else -one
     a1x, a1y, a1z = T[t, 9], T[t, 10], T[t, 11]
     b1x, b1y, b1z = T[t, 12], T[t, 13], T[t, 14]
     c1x, c1y, c1z = T[t, 15], T[t, 16], T[t, 17]

@@ -1,309 +1,86 @@
-"""Collision kernels of the implicit integrator: distances to the colliders of a
-``clothtool.integrators.implicit.collision.ColliderSet`` and Bridson's impulses (that
-module's docstring describes the method). Helpers (``_name``) are ``register_jitable``
-pieces of the kernels, checked through them."""
+"""Cloth-collider contact for the implicit integrator: the shared collision geometry, Bridson's
+response (Bridson, Fedkiw & Anderson 2002, as the slides 23-30 describe).
+
+Geometry. The colliders are posed for the step by the position-based solver's stage
+(``clothtool.solver.collide.CollideStage``: linear motion over the frame, records with the
+cloth's thickness in every margin, one triangle grid) and read through
+``clothtool.solver.kernels.collide.point_correction``: for a point moving x0 -> x1 over the
+step it gives the continuous move (a point that would end beyond a sphere or capsule goes
+back on its surface where it hit, on the side it came from) and the average push-out d of
+the discrete contacts (to the grown surface; a mesh face's side is the one the point started
+on, so thin sheets are solid from both sides and nothing tunnels through a mesh), the
+average surface displacement s and friction budget mu |d|. A contact is summarised as
+(phi, normal xyz, friction, collider velocity xyz) with the correction c = move + d (none
+when |c| <= 1e-7 (1 + |x|_max), float32 rounding of the records):
+phi = -|c|, n = c / |c|, friction = budget / |d|, collider velocity = s / h (after a
+continuous move: no friction, and the velocity of the path x0 -> corrected end, as the
+collider carried it).
+
+Per step, for every free particle, with x0 the start position, v the candidate average
+velocity (x1 - x0)/h from the solve, h the step:
+
+1. repulsion, at the start positions: if x0 lies within the grown surface (collider margin
+   plus the cloth's thickness), depth d = |push-out| > 0, and the relative normal velocity
+   is v_r < 0.1 d / h, it gets the normal impulse I = min(h k d, m (0.1 d/h - v_r)) (the
+   slide's cap; k = the cloth's stretch modulus);
+2. friction with every normal impulse I: the relative tangential velocity v_T becomes
+   max(1 - mu I / (m |v_T|), 0) v_T (Coulomb, static and kinetic with one mu);
+3. inelastic impulses, at the end positions: a particle whose path x0 -> x0 + h v needs a
+   correction c gets the velocity change c / h along n, which lands it on the surface
+   instead of passing through (it stops on the collider rather than bouncing); friction as
+   in 2. Repeated ``passes`` times, so a second collider is resolved too;
+4. a final robust pass: the same correction once more, without friction.
+
+The average velocity after 1-4 sets the new position x1 = x0 + h v; the velocity the
+particle keeps gets the same impulses and then loses its inward relative normal component
+along the last contact normal (a completely inelastic contact: the particle leaves the step
+resting on the collider, not driving into it). The solver runs strain limiting between
+steps 3 and 4 (then motion constraints), so that step 4 has the last word on positions.
+"""
 
 from __future__ import annotations
-
-import math
 
 from numba import prange
 from numba.extending import register_jitable as jitable
 
 from clothtool._jit import kernel
+from clothtool.integrators.implicit import vec
+from clothtool.solver.kernels.collide import point_correction
 
 # Contact decisions compare distances with margins exactly at the boundary (a resting
 # particle sits at the margin); fused multiply-adds would flip some of them, so this module
 # keeps plain IEEE arithmetic (its cost is small next to the conjugate-gradient solve).
 EXACT = False
-from clothtool.integrators.implicit import vec
 
 NO_CONTACT = 1e30  # phi of a particle that touches nothing
-_FAR = NO_CONTACT
-
-
-# ----------------------------------------------------------------- distances
-# A contact is an 8-tuple: (phi, normal xyz, friction, collider velocity xyz).
-_NO_CONTACT = (_FAR, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+NEGLIGIBLE = 1e-7  # a correction shorter than this times (1 + |x|) is none
+_NO_CONTACT = (NO_CONTACT, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 @jitable
-def _contact(phi, n, friction, velocity):
-    return (phi, n[0], n[1], n[2], friction, velocity[0], velocity[1], velocity[2])
+def _contact(shapes, mesh, frame, p0, p1, h, continuous):
+    """The contact summary (phi, normal xyz, friction, collider velocity xyz) of the point
+    moving p0 -> p1 over the step (module docstring), and its correction c (a 3-tuple)."""
+    count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = point_correction(
+        p1[0], p1[1], p1[2], p0[0], p0[1], p0[2], shapes, mesh, frame, continuous
+    )
+    c = (float(mx + dx), float(my + dy), float(mz + dz))
+    size = vec.norm(c)
+    # below the rounding of the (possibly float32) collider records: no contact, else its
+    # noise normal would take the kept velocity's "inward" part away
+    if size <= NEGLIGIBLE * (1.0 + max(abs(p1[0]), abs(p1[1]), abs(p1[2]))):
+        return _NO_CONTACT, (0.0, 0.0, 0.0)
+    n = vec.scale(1.0 / size, c)
+    if mx == 0.0 and my == 0.0 and mz == 0.0:
+        push = vec.norm((float(dx), float(dy), float(dz)))
+        friction = float(budget) / push if push > 0.0 else 0.0
+        velocity = (float(sx) / h, float(sy) / h, float(sz) / h)
+    else:  # a continuous move: carried from the start to where it hit, without friction
+        friction = 0.0
+        velocity = vec.scale(1.0 / h, vec.sub(vec.add(p1, c), p0))
+    return (-size, n[0], n[1], n[2], friction, velocity[0], velocity[1], velocity[2]), c
 
 
-@jitable
-def _nearer(a, b):
-    return b if b[0] < a[0] else a
-
-
-@jitable
-def _closest_on_triangle(p, a, b, c):
-    """Barycentric weights (wa, wb, wc) of the point of triangle abc closest to p
-    (Ericson, Real-Time Collision Detection, 5.1.5)."""
-    ab = vec.sub(b, a)
-    ac = vec.sub(c, a)
-    ap = vec.sub(p, a)
-    d1 = vec.dot(ab, ap)
-    d2 = vec.dot(ac, ap)
-    if d1 <= 0.0 and d2 <= 0.0:
-        return 1.0, 0.0, 0.0
-    bp = vec.sub(p, b)
-    d3 = vec.dot(ab, bp)
-    d4 = vec.dot(ac, bp)
-    if d3 >= 0.0 and d4 <= d3:
-        return 0.0, 1.0, 0.0
-    vc = d1 * d4 - d3 * d2
-    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-        t = d1 / (d1 - d3)
-        return 1.0 - t, t, 0.0
-    cp = vec.sub(p, c)
-    d5 = vec.dot(ab, cp)
-    d6 = vec.dot(ac, cp)
-    if d6 >= 0.0 and d5 <= d6:
-        return 0.0, 0.0, 1.0
-    vb = d5 * d2 - d1 * d6
-    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-        t = d2 / (d2 - d6)
-        return 1.0 - t, 0.0, t
-    va = d3 * d6 - d5 * d4
-    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        return 0.0, 1.0 - t, t
-    denom = 1.0 / (va + vb + vc)
-    v = vb * denom
-    w = vc * denom
-    return 1.0 - v - w, v, w
-
-
-@jitable
-def _blend(wa, a, wb, b, wc, c):
-    return vec.axpy(wa, a, vec.axpy(wb, b, vec.scale(wc, c)))
-
-
-@jitable
-def _sphere_contact(center, radius, velocity, p, margin, friction):
-    """velocity: (vx, vy, vz, dr/dt) of the sphere."""
-    d = vec.sub(p, center)
-    length = vec.norm(d)
-    n = vec.scale(1.0 / length, d) if length > 0.0 else (0.0, 1.0, 0.0)
-    surface_velocity = vec.axpy(velocity[3], n, (velocity[0], velocity[1], velocity[2]))
-    return _contact(length - radius - margin, n, friction, surface_velocity)
-
-
-@jitable
-def _sphere_row(cs, s):
-    return (cs.sphere[s, 0], cs.sphere[s, 1], cs.sphere[s, 2]), cs.sphere[s, 3], (
-        cs.sphere_velocity[s, 0], cs.sphere_velocity[s, 1], cs.sphere_velocity[s, 2], cs.sphere_velocity[s, 3])
-
-
-@jitable
-def _capsule_contact(cs, j, p):
-    """Exact distance to the tapered capsule j (the convex hull of its two spheres)."""
-    a = cs.capsule[j, 0]
-    b = cs.capsule[j, 1]
-    margin = cs.capsule_margin[j]
-    friction = cs.capsule_friction[j]
-    c0, r0, v0 = _sphere_row(cs, a)
-    c1, r1, v1 = _sphere_row(cs, b)
-    axis = vec.sub(c1, c0)
-    length = vec.norm(axis)
-    if length <= abs(r0 - r1):  # one sphere holds the other: the larger one is the capsule
-        if r0 >= r1:
-            return _sphere_contact(c0, r0, v0, p, margin, friction)
-        return _sphere_contact(c1, r1, v1, p, margin, friction)
-    unit = vec.scale(1.0 / length, axis)
-    d = vec.sub(p, c0)
-    x = vec.dot(d, unit)
-    radial = vec.axpy(-x, unit, d)
-    y = vec.norm(radial)
-    if y > 0.0:
-        out = vec.scale(1.0 / y, radial)
-    else:  # on the axis: any perpendicular
-        helper = (1.0, 0.0, 0.0) if abs(unit[0]) < 0.9 else (0.0, 1.0, 0.0)
-        out = vec.axpy(-vec.dot(helper, unit), unit, helper)
-        out = vec.scale(1.0 / vec.norm(out), out)
-    s = (r0 - r1) / length  # sine of the cone's half angle
-    c = math.sqrt(1.0 - s * s)
-    along = x * c - y * s  # along the tangent line, from sphere a's tangent point
-    if along <= 0.0:
-        return _sphere_contact(c0, r0, v0, p, margin, friction)
-    if along >= length * c:
-        return _sphere_contact(c1, r1, v1, p, margin, friction)
-    n = vec.axpy(s, unit, vec.scale(c, out))
-    tau = along / (length * c)
-    radius_rate = (1.0 - tau) * v0[3] + tau * v1[3]
-    centre_velocity = vec.axpy(1.0 - tau, (v0[0], v0[1], v0[2]), vec.scale(tau, (v1[0], v1[1], v1[2])))
-    return _contact(x * s + y * c - r0 - margin, n, friction, vec.axpy(radius_rate, n, centre_velocity))
-
-
-@jitable
-def _convex_contact(cs, k, p):
-    phi = -_FAR
-    plane = -1
-    for q in range(cs.convex_offsets[k], cs.convex_offsets[k + 1]):
-        d = cs.plane[q, 0] * p[0] + cs.plane[q, 1] * p[1] + cs.plane[q, 2] * p[2] - cs.plane[q, 3]
-        if d > phi:
-            phi = d
-            plane = q
-    if plane < 0:
-        return _NO_CONTACT
-    n = (cs.plane[plane, 0], cs.plane[plane, 1], cs.plane[plane, 2])
-    return _contact(phi - cs.convex_margin[k], n, cs.convex_friction[k], vec.scale(cs.plane_rate[plane], n))
-
-
-@jitable
-def _cell_bounds(low, high, geometry, shape):
-    """Inclusive cell ranges (i0, i1, j0, j1, k0, k1) covering the box [low, high]; empty
-    (i0 > i1) when it misses the grid."""
-    i0 = i1 = j0 = j1 = k0 = k1 = 0
-    for a in range(3):
-        lo = int(math.floor((low[a] - geometry[a]) / geometry[3]))
-        hi = int(math.floor((high[a] - geometry[a]) / geometry[3]))
-        if hi < 0 or lo > shape[a] - 1:
-            return 1, 0, 1, 0, 1, 0
-        lo = min(max(lo, 0), shape[a] - 1)
-        hi = min(max(hi, 0), shape[a] - 1)
-        if a == 0:
-            i0, i1 = lo, hi
-        elif a == 1:
-            j0, j1 = lo, hi
-        else:
-            k0, k1 = lo, hi
-    return i0, i1, j0, j1, k0, k1
-
-
-@jitable
-def _mesh_triangle(cs, t):
-    i, j, k = cs.mesh_triangles[t, 0], cs.mesh_triangles[t, 1], cs.mesh_triangles[t, 2]
-    return (i, j, k), vec.row(cs.mesh_points, i), vec.row(cs.mesh_points, j), vec.row(cs.mesh_points, k)
-
-
-@jitable
-def _face_normal(a, b, c):
-    face = vec.cross(vec.sub(b, a), vec.sub(c, a))
-    length = vec.norm(face)
-    return vec.scale(1.0 / length, face) if length > 0.0 else (0.0, 0.0, 0.0)
-
-
-@jitable
-def _mesh_contact(cs, p):
-    """Nearest mesh triangle among those gridded into p's cell. When the nearest point is on
-    an edge or a corner shared by several triangles, the one whose face normal is best
-    aligned with p - q (largest |(p - q) . n|) decides inside or outside."""
-    if cs.mesh_triangles.shape[0] == 0:
-        return _NO_CONTACT
-    i0, i1, j0, j1, k0, k1 = _cell_bounds(p, p, cs.grid_geometry, cs.grid_shape)
-    if i0 > i1:
-        return _NO_CONTACT
-    cell = (i0 * cs.grid_shape[1] + j0) * cs.grid_shape[2] + k0
-    best_distance = _FAR
-    best_alignment = -1.0
-    best_t = -1
-    tie = 1e-12 * (1.0 + abs(p[0]) + abs(p[1]) + abs(p[2]))
-    for slot in range(cs.cell_start[cell], cs.cell_start[cell + 1]):
-        t = cs.cell_items[slot]
-        _, a, b, c = _mesh_triangle(cs, t)
-        wa, wb, wc = _closest_on_triangle(p, a, b, c)
-        d = vec.sub(p, _blend(wa, a, wb, b, wc, c))
-        distance = vec.norm(d) - cs.triangle_margin[t]
-        alignment = abs(vec.dot(d, _face_normal(a, b, c)))
-        if distance < best_distance - tie or (distance <= best_distance + tie and alignment > best_alignment):
-            best_distance = distance
-            best_alignment = alignment
-            best_t = t
-    if best_t < 0:
-        return _NO_CONTACT
-    ids, a, b, c = _mesh_triangle(cs, best_t)
-    face = _face_normal(a, b, c)
-    if face[0] == 0.0 and face[1] == 0.0 and face[2] == 0.0:
-        return _NO_CONTACT
-    wa, wb, wc = _closest_on_triangle(p, a, b, c)
-    d = vec.sub(p, _blend(wa, a, wb, b, wc, c))
-    length = vec.norm(d)
-    if length > tie:
-        n = vec.scale(1.0 / length, d)
-        if vec.dot(d, face) < 0.0:
-            n = vec.scale(-1.0, n)
-            length = -length
-    else:
-        n = face
-        length = 0.0
-    velocity = _blend(wa, vec.row(cs.mesh_velocity, ids[0]), wb, vec.row(cs.mesh_velocity, ids[1]),
-                      wc, vec.row(cs.mesh_velocity, ids[2]))
-    return _contact(length - cs.triangle_margin[best_t], n, cs.triangle_friction[best_t], velocity)
-
-
-@jitable
-def _mesh_crossing(cs, p0, p1):
-    """The deepest crossing of a mesh face from its front to its back on the path p0 -> p1:
-    phi = p1's distance to the face's plane (negative) minus the margin, normal = the face's."""
-    best = _NO_CONTACT
-    if cs.mesh_triangles.shape[0] == 0:
-        return best
-    low = (min(p0[0], p1[0]), min(p0[1], p1[1]), min(p0[2], p1[2]))
-    high = (max(p0[0], p1[0]), max(p0[1], p1[1]), max(p0[2], p1[2]))
-    i0, i1, j0, j1, k0, k1 = _cell_bounds(low, high, cs.grid_geometry, cs.grid_shape)
-    for ci in range(i0, i1 + 1):
-        for cj in range(j0, j1 + 1):
-            for ck in range(k0, k1 + 1):
-                cell = (ci * cs.grid_shape[1] + cj) * cs.grid_shape[2] + ck
-                for slot in range(cs.cell_start[cell], cs.cell_start[cell + 1]):
-                    t = cs.cell_items[slot]
-                    ids, a, b, c = _mesh_triangle(cs, t)
-                    face = vec.cross(vec.sub(b, a), vec.sub(c, a))
-                    face_length = vec.norm(face)
-                    if face_length == 0.0:
-                        continue
-                    face = vec.scale(1.0 / face_length, face)
-                    s0 = vec.dot(vec.sub(p0, a), face)
-                    s1 = vec.dot(vec.sub(p1, a), face)
-                    if not (s0 >= 0.0 and s1 < 0.0):
-                        continue
-                    hit = vec.axpy(s0 / (s0 - s1), vec.sub(p1, p0), p0)
-                    wa, wb, wc = _closest_on_triangle(hit, a, b, c)
-                    miss = vec.sub(hit, _blend(wa, a, wb, b, wc, c))
-                    if vec.dot(miss, miss) > 1e-20 * (1.0 + vec.dot(hit, hit)):
-                        continue
-                    velocity = _blend(wa, vec.row(cs.mesh_velocity, ids[0]), wb, vec.row(cs.mesh_velocity, ids[1]),
-                                      wc, vec.row(cs.mesh_velocity, ids[2]))
-                    best = _nearer(best, _contact(s1 - cs.triangle_margin[t], face, cs.triangle_friction[t], velocity))
-    return best
-
-
-@jitable
-def _nearest_contact(cs, p):
-    """(phi, normal xyz, friction, collider velocity xyz) of the collider surface nearest to
-    the point p (a tuple): phi = signed distance - margin, 1e30 when there is no collider."""
-    best = _NO_CONTACT
-    for s in range(cs.sphere.shape[0]):
-        if cs.sphere_active[s]:
-            centre, radius, velocity = _sphere_row(cs, s)
-            best = _nearer(best, _sphere_contact(centre, radius, velocity, p, cs.sphere_margin[s], cs.sphere_friction[s]))
-    for j in range(cs.capsule.shape[0]):
-        best = _nearer(best, _capsule_contact(cs, j, p))
-    for k in range(cs.convex_offsets.shape[0] - 1):
-        best = _nearer(best, _convex_contact(cs, k, p))
-    return _nearer(best, _mesh_contact(cs, p))
-
-
-@jitable
-def _end_contact(cs, p0, p1):
-    """``_nearest_contact`` of p1, or a deeper mesh crossing on the path p0 -> p1."""
-    return _nearer(_nearest_contact(cs, p1), _mesh_crossing(cs, p0, p1))
-
-
-@kernel(fastmath=EXACT)
-def nearest_contacts(cs, points, out):
-    """out (n,8): the contact nearest to every row of points (n,3): (phi, normal xyz,
-    friction, collider velocity xyz), phi = signed distance - margin (NO_CONTACT: none)."""
-    for i in range(points.shape[0]):
-        contact = _nearest_contact(cs, vec.row(points, i))
-        for k in range(8):
-            out[i, k] = contact[k]
-
-
-# ----------------------------------------------------------------- response (numba)
 @jitable
 def _impulse(v, dvn, contact):
     """v + dvn n, then Coulomb friction for that normal impulse (per unit mass) on the
@@ -322,17 +99,17 @@ def _impulse(v, dvn, contact):
 
 
 @kernel(parallel=True, fastmath=EXACT)
-def collide_particles(start, end, x0, mass, free, thickness, stiffness, h, passes, v_mid, v_end, contact):
+def collide_particles(shapes, mesh, frame, x0, mass, free, stiffness, h, passes, v_mid, v_end, contact):
     """Bridson's steps 1-3 (module docstring) for every free particle.
 
-    start, end: ``ColliderSet`` at the step's start and end; x0 (n,3) start positions;
-    mass (n,); free u8 (n,); thickness: the cloth's; stiffness: repulsion spring k;
-    passes: rounds of step 3. v_mid (n,3) in/out: the average velocity over the step (the
-    new position is x0 + h v_mid); v_end (n,3) in/out: the velocity the particle keeps,
-    changed by the same impulses; contact (n,8) out: the last contact that gave the particle
-    an impulse (phi, normal, friction, collider velocity; phi = NO_CONTACT for none)."""
+    shapes, mesh, frame: the colliders posed for the step (``CollideStage.groups``); x0 (n,3)
+    start positions; mass (n,); free u8 (n,); stiffness: repulsion spring k; passes: rounds
+    of step 3. v_mid (n,3) in/out: the average velocity over the step (the new position is
+    x0 + h v_mid); v_end (n,3) in/out: the velocity the particle keeps, changed by the same
+    impulses; contact (n,8) out: the last contact that gave the particle an impulse (phi,
+    normal, friction, collider velocity; phi = NO_CONTACT for none)."""
     for i in prange(x0.shape[0]):
-        contact[i, 0] = _FAR
+        contact[i, 0] = NO_CONTACT
         if free[i] == 0:
             continue
         p0 = vec.row(x0, i)
@@ -340,62 +117,50 @@ def collide_particles(start, end, x0, mass, free, thickness, stiffness, h, passe
         v_start = v
         m = mass[i]
         last = _NO_CONTACT
-        # 1-2: repulsion within the thickness at the start, with friction
-        found = _nearest_contact(start, p0)
-        d = thickness - found[0]
-        if d > 0.0:
+        # 1-2: repulsion within the grown surface at the start, with friction
+        found, _ = _contact(shapes, mesh, frame, p0, p0, h, False)
+        d = -found[0]
+        if found[0] < NO_CONTACT:
             vr = vec.dot(vec.sub(v, (found[5], found[6], found[7])), (found[1], found[2], found[3]))
             if vr < 0.1 * d / h:
                 dvn = min(h * stiffness * d / m, 0.1 * d / h - vr)
                 v = _impulse(v, dvn, found)
                 last = found
-        # 3: inelastic impulses for what the end positions reach
+        # 3: inelastic impulses for what the paths to the end positions reach
         for _ in range(passes):
-            found = _end_contact(end, p0, vec.axpy(h, v, p0))
-            phi = found[0] - thickness
-            if phi >= 0.0:
+            found, c = _contact(shapes, mesh, frame, p0, vec.axpy(h, v, p0), h, True)
+            if found[0] >= NO_CONTACT:
                 break
-            v = _impulse(v, -phi / h, found)
+            v = _impulse(v, -found[0] / h, found)
             last = found
         vec.set_row(v_mid, i, v)
         vec.add_row(v_end, i, 1.0, vec.sub(v, v_start))
-        if last[0] < _FAR:
+        if last[0] < NO_CONTACT:
             for k in range(8):
                 contact[i, k] = last[k]
 
 
 @kernel(parallel=True, fastmath=EXACT)
-def project_particles(end, x0, free, thickness, h, v_mid, v_end, contact):
-    """Bridson's step 4, the final robust pass, for every free particle: an end position
-    x0 + h v_mid within the thickness of a collider is moved onto the surface (+ thickness)
-    along the normal. A particle that touches a collider (``contact`` from
-    ``collide_particles``, or this pass) keeps a velocity v_end without inward relative
-    normal part; ``contact`` (n,8) records this pass's contacts too."""
+def project_particles(shapes, mesh, frame, x0, free, h, v_mid, v_end, contact):
+    """Bridson's step 4, the final robust pass, for every free particle: the path
+    x0 -> x0 + h v_mid is corrected once more (onto the grown surface, on the side it came
+    from). A particle that touches a collider (``contact`` from ``collide_particles``, or
+    this pass) keeps a velocity v_end without inward relative normal part; ``contact`` (n,8)
+    records this pass's contacts too."""
     for i in prange(x0.shape[0]):
         if free[i] == 0:
             continue
         p0 = vec.row(x0, i)
         v = vec.row(v_mid, i)
-        found = _end_contact(end, p0, vec.axpy(h, v, p0))
-        phi = found[0] - thickness
-        if phi < 0.0:
-            v = vec.axpy(-phi / h, (found[1], found[2], found[3]), v)
+        found, c = _contact(shapes, mesh, frame, p0, vec.axpy(h, v, p0), h, True)
+        if found[0] < NO_CONTACT:
+            v = vec.axpy(1.0 / h, c, v)
             vec.set_row(v_mid, i, v)
             for k in range(8):
                 contact[i, k] = found[k]
-        if contact[i, 0] < _FAR:
+        if contact[i, 0] < NO_CONTACT:
             n = (contact[i, 1], contact[i, 2], contact[i, 3])
             keep = vec.row(v_end, i)
             inward = vec.dot(vec.sub(keep, (contact[i, 5], contact[i, 6], contact[i, 7])), n)
             if inward < 0.0:
                 vec.set_row(v_end, i, vec.axpy(-inward, n, keep))
-
-
-@kernel(fastmath=EXACT)
-def end_contacts(cs, start_points, end_points, out):
-    """out (n,8): for each path start -> end (rows of (n,3) arrays), the contact nearest to
-    its end, or a deeper crossing of a mesh face from front to back on the way."""
-    for i in range(start_points.shape[0]):
-        contact = _end_contact(cs, vec.row(start_points, i), vec.row(end_points, i))
-        for k in range(8):
-            out[i, k] = contact[k]
