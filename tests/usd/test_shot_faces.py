@@ -35,6 +35,7 @@ def layer_penetration(tmp_path: Path, face_collision: bool) -> dict[int, tuple[f
     stage = Usd.Stage.Open(str(layer))
     mesh = UsdGeom.Mesh(stage.GetPrimAtPath(cloth.prim))
     vertex_particle = np.asarray(cloth.vertex_particle)
+    triangles = cloth.fabric.vertex_numbers(cloth.fabric.triangles)  # the cook may renumber particles
     measured = {}
     for frame in range(scene.start_frame, scene.end_frame + 1):
         code = Usd.TimeCode(frame)
@@ -45,7 +46,7 @@ def layer_penetration(tmp_path: Path, face_collision: bool) -> dict[int, tuple[f
         colliders = scene.colliders.at(scene.frame_time(frame))
         assert colliders.mesh_triangles.shape[0] > 0  # the body is a mesh collider
         result = face_penetration(
-            particles, cloth.fabric.triangles, colliders, scene.meters_per_unit, cloth.material.thickness * scene.meters_per_unit
+            particles, triangles, colliders, scene.meters_per_unit, cloth.material.thickness * scene.meters_per_unit
         )
         measured[frame] = (result.depth, result.faces_beyond)
     # the bake's own report (world-space solver state) agrees with the layer

@@ -60,6 +60,9 @@ class ExplicitClothSolver:
         frame_dt: when given, the stability check runs here already (else in plan_frame).
     """
 
+    # world space: no moving frame, so the collider stage poses with identity frames
+    frame_terms = None
+
     def __init__(
         self,
         model,

@@ -143,6 +143,9 @@ class ImplicitClothSolver:
     ``compression_ratio`` (0.1), ``strain_limit`` (0.1), ``parallel_threshold``.
     """
 
+    # world space: no moving frame, so the collider stage poses with identity frames
+    frame_terms = None
+
     def __init__(
         self,
         model: ClothModel,
