@@ -1,4 +1,4 @@
-"""integrate_linear / integrate_affine / mean_displacement against tests/reference/integrate.py."""
+"""integrate_linear / integrate_affine / mean_displacement / integrate_free against tests/reference/integrate.py."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clothtool.solver.kernels.integrate import _row, integrate_affine, integrate_linear, mean_displacement
+from clothtool.solver.kernels.integrate import _row, integrate_affine, integrate_free, integrate_linear, mean_displacement
 from tests.kernels._data import F32, U, assert_close, f32, particles
 from tests.reference import integrate as ref
 
@@ -135,3 +135,21 @@ def test_mean_displacement_matches_reference(seed, n, pinned):
     np.testing.assert_allclose(out, ref.mean_displacement(cur0, prev0), rtol=1e-12, atol=1e-15)
     if not (prev0[:, 3] > 0).any():
         np.testing.assert_array_equal(out, np.zeros(3))
+
+
+@settings(max_examples=25)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 70), spared=st.sampled_from([0.0, 0.01, 0.2]))
+def test_integrate_free_matches_reference(seed, n, spared):
+    """A free cloth's step (every particle movable): the bias carries the spared share of the
+    mean displacement; the bias is rounded to float32 once more than integrate_linear's."""
+    rng = np.random.default_rng(seed)
+    cur0, prev0 = particles(rng, n, pinned=0.0)
+    disturb_cur_w(rng, cur0)
+    scale = F32(rng.uniform(0.5, 1.2))
+    bias = f32(rng.normal(0.0, 1e-3, 3))
+    mean = np.full(3, np.nan)
+    cur, prev = run(integrate_free, scale, spared, bias, mean, cur=cur0, prev=prev0)
+    ref_cur, ref_prev = ref.integrate_free(scale, spared, bias, cur0, prev0)
+    check(cur0, prev0, cur, prev, ref_cur, ref_prev, ATOL_LINEAR + U)
+    if spared != 0.0 and n:
+        np.testing.assert_allclose(mean, ref.mean_displacement(cur0, prev0), rtol=1e-12, atol=1e-15)

@@ -60,3 +60,12 @@ def mean_displacement(cur, prev):
         return np.zeros(3)
     mass = 1.0 / prev[movable, 3]
     return mass @ (cur[movable, :3] - prev[movable, :3]) / mass.sum()
+
+
+def integrate_free(scale, spared, gravity_bias, cur, prev):
+    """integrate_linear for a free cloth damped relative to its mean motion: the bias is
+    gravity_bias + spared * (mean displacement); returns (cur, prev) as float64 copies."""
+    bias = np.asarray(gravity_bias, np.float64)
+    if spared != 0.0:
+        bias = bias + spared * mean_displacement(cur, prev)
+    return integrate_linear(scale, bias, cur, prev)
