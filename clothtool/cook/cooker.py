@@ -10,8 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from clothtool.cook import paint
-from clothtool.cook import locality
+from clothtool.cook import locality, paint
 from clothtool.cook.adjacency import AdjacencyQuerier
 from clothtool.cook.phases import build_phases
 from clothtool.cook.tethers import build_tethers

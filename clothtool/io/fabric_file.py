@@ -17,7 +17,13 @@ import numpy as np
 from clothtool import __version__
 from clothtool.errors import FormatError, UsageError
 from clothtool.fabric import (
-    ARRAY_FIELDS, ATTR_FIELDS, FORMAT_NAME, FORMAT_VERSION, OPTIONAL_ARRAY_FIELDS, READABLE_VERSIONS, Fabric,
+    ARRAY_FIELDS,
+    ATTR_FIELDS,
+    FORMAT_NAME,
+    FORMAT_VERSION,
+    OPTIONAL_ARRAY_FIELDS,
+    READABLE_VERSIONS,
+    Fabric,
 )
 from clothtool.inputs import note_input
 from clothtool.io.atomic import atomic_output, write_error

@@ -47,7 +47,7 @@ def body_in_scene_units(body: Collider, file_mpu: float, file_up: str, scene_mpu
     return dataclasses.replace(
         body,
         thickness=scale * body.thickness,
-        centers=_points(body.centers, scale, rotation),
+        centers=scale * (body.centers @ rotation.T),
         radii=scale * body.radii,
         planes=planes,
         mesh_points=_points(body.mesh_points, scale, rotation),

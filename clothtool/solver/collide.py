@@ -31,7 +31,6 @@ from clothtool.solver.colliders import ColliderArrays, friction_or
 from clothtool.solver.facepoints import face_points
 from clothtool.solver.framefn import FusedCall, copy_lines, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
-from clothtool.solver.meshfaces import collider_owners, sample_spacing
 from clothtool.solver.kernels.collide import (
     collide_particles,
     collide_particles_for,
@@ -50,6 +49,7 @@ from clothtool.solver.kernels.collide_pose import (
     pose_points,
     pose_spheres,
 )
+from clothtool.solver.meshfaces import collider_owners, sample_spacing
 from clothtool.solver.stage import Stage
 
 # The mesh grid has at most this many cells per triangle.

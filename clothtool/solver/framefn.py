@@ -155,13 +155,14 @@ def compile_frame(source: str):
     digest = hashlib.sha256(source.encode()).hexdigest()[:24]
     if path is not None:
         spec = importlib.util.spec_from_file_location(f"clothtool_generated_frame_{digest}", path)
+        assert spec is not None and spec.loader is not None  # a .py file path always has both
         module = importlib.util.module_from_spec(spec)
         # numba's cached entries re-import the function's module by name when they load
         sys.modules[spec.name] = module
         spec.loader.exec_module(module)
-        namespace = vars(module)
+        namespace: dict = vars(module)
     else:
-        namespace: dict = {}
+        namespace = {}
         exec(compile(source, f"<clothtool frame {digest}>", "exec"), namespace)
     dispatcher = _COMPILED[source] = namespace["frame"]
     return dispatcher
@@ -173,7 +174,7 @@ class FusedFrame:
 
     def __init__(self) -> None:
         self.source = ""
-        self.function = None
+        self.function: object = None
         self._shapes: dict[tuple, tuple[str, object]] = {}  # the calls' lines and kernels -> (source, function)
 
     def prepare(self, stages) -> tuple[object, list, bool]:
@@ -197,6 +198,8 @@ def _callees_path(function) -> Path | None:
 
 
 def _read_callees(path: Path | None) -> dict:
+    if path is None:
+        return {}
     try:
         with open(path, "rb") as stream:
             return pickle.load(stream)

@@ -92,7 +92,7 @@ class ClothMeter:
     def _strain_from_spans(self) -> dict:
         """Per phase type (max, mean) from frame_summary's per-span extremes."""
         worst: dict[str, float] = {}
-        totals: dict[str, list[float]] = {}
+        totals: dict[str, tuple[float, int]] = {}
         for s, label in enumerate(self.span_labels):
             first, last = self.span_bounds[s]
             worst[label] = max(worst.get(label, -np.inf), float(self.span_max[s]))

@@ -16,7 +16,11 @@ class Stage(abc.ABC):
     """A solver stage. ``name`` is what the profiler and the report call it."""
 
     name = "stage"
-    fused = True  # runs inside the compiled frame function (clothtool.solver.framefn)
+
+    @property
+    def fused(self) -> bool:
+        """True: runs inside the compiled frame function (clothtool.solver.framefn)."""
+        return True
 
     def __init__(self, solver: "ClothSolver"):
         self.solver = solver

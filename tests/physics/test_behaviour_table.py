@@ -31,8 +31,8 @@ from scipy.special import ellipk
 from clothtool.settings import Material, PhaseSettings
 from tests.physics.behaviour_setup import (
     FPS,
-    G,
     Column,
+    G,
     add_velocity,
     columns,
     cooked_sheet,
