@@ -8,6 +8,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from clothtool.solver.kernels.collide_mesh import (
+    box_cells,
     closest_on_triangle,
     grid_cell,
     grid_cell_ranges,
@@ -140,6 +141,12 @@ def test_grid_build_matches_reference():
     np.testing.assert_array_equal(cell_items, ref_items)
     for x in (-5.0, float(grid[0]) + 0.5 / grid[3], 5.0):
         assert grid_cell(F32(x), grid, 0) == ref.grid_cell(x, grid, 0)
+    # boxes inside, across the border and wholly outside the grid
+    centre = grid[:3] + 0.5 * grid[4:7] / grid[3]
+    for _ in range(200):
+        lo = centre + rng.normal(0.0, 1.0, 3) * grid[4:7] / grid[3]
+        hi = lo + rng.uniform(0.0, 0.5, 3) * grid[4:7] / grid[3]
+        assert box_cells(*lo, *hi, grid) == ref.box_cells(lo, hi, grid)
 
 
 def test_to_world_matches_reference():

@@ -113,6 +113,16 @@ def grid_cell(x, grid, d):
     return int(np.clip(np.floor((x - grid[d]) * grid[3]), 0, int(grid[4 + d]) - 1))
 
 
+def box_cells(lo, hi, grid):
+    """(outside, x0, y0, z0, x1, y1, z1): the cells the box lo..hi covers, clamped; outside
+    when it misses the grid."""
+    first = np.floor((np.asarray(lo, np.float64) - grid[:3]) * grid[3]).astype(np.int64)
+    last = np.floor((np.asarray(hi, np.float64) - grid[:3]) * grid[3]).astype(np.int64)
+    counts = np.asarray(grid[4:7], np.int64)
+    outside = bool((last < 0).any() or (first >= counts).any())
+    return (outside, *np.maximum(first, 0).tolist(), *np.minimum(last, counts - 1).tolist())
+
+
 def grid_cell_ranges(bounds, grid):
     """(entries, cell_ranges (t,6))."""
     ranges = np.array(

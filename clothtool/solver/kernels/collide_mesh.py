@@ -234,6 +234,24 @@ def grid_cell(x, grid, d):
 
 
 @kernel
+def box_cells(lox, loy, loz, hix, hiy, hiz, grid):
+    """The cells a world box covers: (outside, x0, y0, z0, x1, y1, z1), clamped to the grid;
+    ``outside`` when the box misses the grid entirely."""
+    inv = grid[3]
+    x0 = int(np.floor((lox - grid[0]) * inv))
+    y0 = int(np.floor((loy - grid[1]) * inv))
+    z0 = int(np.floor((loz - grid[2]) * inv))
+    x1 = int(np.floor((hix - grid[0]) * inv))
+    y1 = int(np.floor((hiy - grid[1]) * inv))
+    z1 = int(np.floor((hiz - grid[2]) * inv))
+    nx = int(grid[4])
+    ny = int(grid[5])
+    nz = int(grid[6])
+    outside = x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz
+    return outside, max(x0, 0), max(y0, 0), max(z0, 0), min(x1, nx - 1), min(y1, ny - 1), min(z1, nz - 1)
+
+
+@kernel
 def grid_cell_ranges(bounds, grid, cell_ranges):
     """cell_ranges (t,6): each triangle's first and last cell per axis; returns the number
     of (triangle, cell) entries."""
@@ -304,24 +322,13 @@ def mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, 
     mu = zero
     wpx, wpy, wpz = to_world(frame, 1, px, py, pz)
     wqx, wqy, wqz = to_world(frame, 0, qx, qy, qz)
-    inv = grid[3]
-    x0 = int(np.floor((min(wpx, wqx) - grid[0]) * inv))
-    y0 = int(np.floor((min(wpy, wqy) - grid[1]) * inv))
-    z0 = int(np.floor((min(wpz, wqz) - grid[2]) * inv))
-    x1 = int(np.floor((max(wpx, wqx) - grid[0]) * inv))
-    y1 = int(np.floor((max(wpy, wqy) - grid[1]) * inv))
-    z1 = int(np.floor((max(wpz, wqz) - grid[2]) * inv))
+    outside, x0, y0, z0, x1, y1, z1 = box_cells(
+        min(wpx, wqx), min(wpy, wqy), min(wpz, wqz), max(wpx, wqx), max(wpy, wqy), max(wpz, wqz), grid
+    )
+    if outside:
+        return hit, rx, ry, rz, sx, sy, sz, mu
     nx = int(grid[4])
     ny = int(grid[5])
-    nz = int(grid[6])
-    if x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz:
-        return hit, rx, ry, rz, sx, sy, sz, mu
-    x0 = max(x0, 0)
-    y0 = max(y0, 0)
-    z0 = max(z0, 0)
-    x1 = min(x1, nx - 1)
-    y1 = min(y1, ny - 1)
-    z1 = min(z1, nz - 1)
     T = triangle_data
     single = x0 == x1 and y0 == y1 and z0 == z1  # one cell: no triangle can come twice
     for z in range(z0, z1 + 1):

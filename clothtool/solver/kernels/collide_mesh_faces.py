@@ -36,7 +36,7 @@ import numpy as np
 
 from clothtool._jit import kernel
 from clothtool.solver.kernels.collide import friction_correction
-from clothtool.solver.kernels.collide_mesh import to_world, triangle_contact_within
+from clothtool.solver.kernels.collide_mesh import box_cells, to_world, triangle_contact_within
 from clothtool.solver.kernels.collide_pose import pack_triangle
 
 
@@ -122,8 +122,6 @@ def collide_mesh_faces(
     T = triangle_data
     nx = int(grid[4])
     ny = int(grid[5])
-    nz = int(grid[6])
-    inv = grid[3]
     corrected = 0
     for f in range(cloth_triangles.shape[0]):
         a = cloth_triangles[f, 0]
@@ -149,20 +147,9 @@ def collide_mesh_faces(
                 hi0 = max(hi0, x)
                 hi1 = max(hi1, y)
                 hi2 = max(hi2, z)
-        x0 = int(np.floor((lo0 - grid[0]) * inv))
-        y0 = int(np.floor((lo1 - grid[1]) * inv))
-        z0 = int(np.floor((lo2 - grid[2]) * inv))
-        x1 = int(np.floor((hi0 - grid[0]) * inv))
-        y1 = int(np.floor((hi1 - grid[1]) * inv))
-        z1 = int(np.floor((hi2 - grid[2]) * inv))
-        if x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz:
+        outside, x0, y0, z0, x1, y1, z1 = box_cells(lo0, lo1, lo2, hi0, hi1, hi2, grid)
+        if outside:
             continue
-        x0 = max(x0, 0)
-        y0 = max(y0, 0)
-        z0 = max(z0, 0)
-        x1 = min(x1, nx - 1)
-        y1 = min(y1, ny - 1)
-        z1 = min(z1, nz - 1)
         pack_triangle(prev, cur, a, b, c, margin, zero, record, 0)
         best = zero
         hit = False
