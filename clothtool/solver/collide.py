@@ -35,7 +35,7 @@ from clothtool.solver.kernels.collide import (
     collide_particles,
     collide_particles_for,
     collide_particles_parallel,
-    collide_virtual,
+    collide_virtual_for,
 )
 from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
 from clothtool.solver.kernels.collide_mesh_faces import collide_mesh_faces
@@ -208,6 +208,8 @@ class CollideStage(Stage):
         meshes = colliders.mesh_triangles.shape[0] > 0
         convexes = colliders.convex_plane_offsets.shape[0] > 1
         serial, parallel = collide_particles_for(meshes, convexes, self.continuous)
+        # the virtual particles' and face points' kernel, kept to the same kinds
+        self.virtual_kernel = collide_virtual_for(meshes, convexes, self.continuous)
         return parallel if self.parallel else serial
 
     def _add_face_points(self, colliders: ColliderArrays) -> None:
@@ -414,7 +416,7 @@ class CollideStage(Stage):
         kernels = {
             "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
             "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
-            "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": collide_virtual,
+            "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": self.virtual_kernel,
             "collide_mesh_faces": collide_mesh_faces,
         }
         return FusedCall(
@@ -450,7 +452,7 @@ class CollideStage(Stage):
         # as in run(): a big kernel, compiled only for fabrics with virtual particles, or when
         # begin_frame will add face points (face collision against spheres or capsules)
         if self.virtual.shape[0] or (self.face_collision and colliders.has_spheres_or_capsules):
-            collide_virtual(
+            self.virtual_kernel(
                 self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale,
                 self.meters_per_unit, state.cur[:0],
             )
@@ -493,7 +495,7 @@ class CollideStage(Stage):
         shapes, mesh = self.groups()
         self.kernel(shapes, mesh, self.frame, state.prev, self.continuous, self.mass_scale, self.meters_per_unit, state.cur)
         if self.virtual.shape[0]:
-            collide_virtual(
+            self.virtual_kernel(
                 self.virtual, self.virtual_weights, shapes, mesh, self.frame, state.prev, self.continuous, self.mass_scale,
                 self.meters_per_unit, state.cur,
             )

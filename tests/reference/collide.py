@@ -223,3 +223,10 @@ def point_correction(p, q, shapes_group, mesh, frame, continuous):
     shift = sum((c[1] for c in found), np.zeros(3)) / count
     budget = sum(c[2] * np.linalg.norm(c[0]) for c in found) / count
     return count, moved, push, shift, budget
+
+
+# The kernel's point_correction variants kept to fewer collider kinds (collide_virtual picks
+# one for the scene's kinds): the same geometry whenever the kinds left out are absent.
+_spheres_only = _spheres_continuous = point_correction
+_with_convexes = _with_convexes_continuous = point_correction
+_with_meshes = _with_meshes_continuous = _with_both = point_correction

@@ -243,48 +243,70 @@ def _mesh_summary(found):
     return 1, ex, ey, ez, tx, ty, tz, mu * np.sqrt(ex * ex + ey * ey + ez * ez)
 
 
-@kernel(inline="always")
-def point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous):
-    """The collision geometry of one point moving q -> p over the iteration, for integrators
-    that make their own response (implicit, explicit): (count, mx, my, mz, dx, dy, dz, sx,
-    sy, sz, budget). m is the continuous move (to where it hit a sphere or capsule on the side
-    it came from; zero when ``continuous`` is off or it hit nothing), then d, s and budget
-    are the AVERAGE push-out, surface displacement and friction budget (mu * |push-out|) of
-    the ``count`` discrete contacts at p + m: steps 1-2 of the module docstring, as the
-    position-based particle kernel computes them."""
-    zero = np.float32(0.0)
-    sphere_data, capsule_data, planes, offsets, convex_data = shapes
-    triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
-    mx = my = mz = zero
-    if continuous and (sphere_data.shape[0] > 0 or capsule_data.shape[0] > 0):
-        _, rx, ry, rz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
-        mx = rx - px
-        my = ry - py
-        mz = rz - pz
-        px = rx
-        py = ry
-        pz = rz
-    total = (0, zero, zero, zero, zero, zero, zero, zero)
-    if sphere_data.shape[0] > 0:
-        total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
-    if capsule_data.shape[0] > 0:
-        total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
-    if offsets.shape[0] > 1:
-        total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
-    if triangle_data.shape[0] > 0:
-        found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
-        total = _add_contacts(total, _mesh_summary(found))
-    count, dx, dy, dz, sx, sy, sz, budget = total
-    if count > 0:
-        inv = np.float32(1.0) / np.float32(count)
-        dx *= inv
-        dy *= inv
-        dz *= inv
-        sx *= inv
-        sy *= inv
-        sz *= inv
-        budget *= inv
-    return count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget
+def _make_point_correction(with_meshes: bool, with_convexes: bool, with_continuous: bool):
+    """``point_correction`` with the code of mesh colliders, convex colliders and continuous
+    collision each kept or left out (closure constants, pruned before typing, as in
+    ``_make_collide_particles``): the face points of a scene of spheres and capsules compile
+    a small kernel instead of the general one (most of a cold start's compile time)."""
+
+    def point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous):
+        """The collision geometry of one point moving q -> p over the iteration, for integrators
+        that make their own response (implicit, explicit): (count, mx, my, mz, dx, dy, dz, sx,
+        sy, sz, budget). m is the continuous move (to where it hit a sphere or capsule on the side
+        it came from; zero when ``continuous`` is off or it hit nothing), then d, s and budget
+        are the AVERAGE push-out, surface displacement and friction budget (mu * |push-out|) of
+        the ``count`` discrete contacts at p + m: steps 1-2 of the module docstring, as the
+        position-based particle kernel computes them."""
+        zero = np.float32(0.0)
+        sphere_data, capsule_data, planes, offsets, convex_data = shapes
+        triangle_data, cell_start, cell_items, cell_ranges, grid = mesh
+        mx = my = mz = zero
+        if with_continuous:  # closure constants: numba prunes these branches before typing
+            if continuous and (sphere_data.shape[0] > 0 or capsule_data.shape[0] > 0):
+                _, rx, ry, rz = continuous_contact(px, py, pz, qx, qy, qz, sphere_data, capsule_data)
+                mx = rx - px
+                my = ry - py
+                mz = rz - pz
+                px = rx
+                py = ry
+                pz = rz
+        total = (0, zero, zero, zero, zero, zero, zero, zero)
+        if sphere_data.shape[0] > 0:
+            total = _add_contacts(total, sphere_contacts(px, py, pz, sphere_data))
+        if capsule_data.shape[0] > 0:
+            total = _add_contacts(total, capsule_contacts(px, py, pz, capsule_data))
+        if with_convexes:
+            if offsets.shape[0] > 1:
+                total = _add_contacts(total, convex_contacts(px, py, pz, planes, offsets, convex_data, frame))
+        if with_meshes:
+            if triangle_data.shape[0] > 0:
+                found = mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, cell_ranges, grid, frame)
+                total = _add_contacts(total, _mesh_summary(found))
+        count, dx, dy, dz, sx, sy, sz, budget = total
+        if count > 0:
+            inv = np.float32(1.0) / np.float32(count)
+            dx *= inv
+            dy *= inv
+            dz *= inv
+            sx *= inv
+            sy *= inv
+            sz *= inv
+            budget *= inv
+        return count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget
+
+    return kernel(inline="always")(point_correction)
+
+
+# The variants collide_virtual picks from (compiled only when used; see _make_collide_virtual).
+# The general one serves the implicit and explicit integrators' responses.
+_spheres_only = _make_point_correction(False, False, False)
+_spheres_continuous = _make_point_correction(False, False, True)
+_with_convexes = _make_point_correction(False, True, False)
+_with_convexes_continuous = _make_point_correction(False, True, True)
+_with_meshes = _make_point_correction(True, False, False)
+_with_meshes_continuous = _make_point_correction(True, False, True)
+_with_both = _make_point_correction(True, True, False)
+point_correction = _make_point_correction(True, True, True)
 
 
 def _make_collide_particles(with_meshes: bool, with_convexes: bool, with_continuous: bool):
@@ -367,62 +389,100 @@ def collide_particles_for(meshes: bool, convexes: bool, continuous: bool):
 collide_particles, collide_particles_parallel = collide_particles_for(True, True, True)
 
 
-@kernel
-def collide_virtual(virtual, weights, shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
-    """Virtual particles (rows i, j, k, weight row): the weighted point of three particles
-    collides like a particle (``point_correction``: continuous collision when ``continuous``,
-    discrete contacts; friction, mass scale) and its correction c is shared out as
-    x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
-    a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
-    order, each seeing the corrections before it; the fabric orders them in conflict-free
-    batches, so this equals solving each batch at once."""
-    zero = np.float32(0.0)
-    one = np.float32(1.0)
-    for r in range(virtual.shape[0]):
-        a = virtual[r, 0]
-        b = virtual[r, 1]
-        c = virtual[r, 2]
-        wa = weights[virtual[r, 3], 0]
-        wb = weights[virtual[r, 3], 1]
-        wc = weights[virtual[r, 3], 2]
-        ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
-        mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
-        mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
-        norm = ma * ma + mb * mb + mc * mc
-        if norm <= zero:
-            continue
-        px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
-        py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
-        pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
-        qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
-        qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
-        qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
-        # the point's own continuous move (to where it hit, on the side it came from) is part
-        # of its correction, shared out like the push-out
-        count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = point_correction(
-            px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous
-        )
-        if count == 0 and mx == zero and my == zero and mz == zero:
-            continue
-        cx = mx
-        cy = my
-        cz = mz
-        scale = one
-        if count > 0:
-            fx, fy, fz = friction_correction(
-                px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
-            )
-            cx += dx + fx
-            cy += dy + fy
-            cz += dz + fz
-        if count > 0 and mass_scale > 0.0:
-            square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
-            scale = one / (one + mass_scale * square)
-        for particle, m in ((a, ma), (b, mb), (c, mc)):
-            if m == zero:
+def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuous: bool):
+    """``collide_virtual`` over the ``point_correction`` kept to the collider kinds present.
+    It picks its variant by closure constants among the module's globals, not by capturing
+    the function: numba keys a closure's cache entry by its captured values, and a captured
+    function pickles differently in every process (the kernel would recompile every run)."""
+
+    def collide_virtual(virtual, weights, shapes, mesh, frame, prev, continuous, mass_scale, meters_per_unit, cur):
+        """Virtual particles (rows i, j, k, weight row): the weighted point of three particles
+        collides like a particle (``point_correction``: continuous collision when ``continuous``,
+        discrete contacts; friction, mass scale) and its correction c is shared out as
+        x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
+        a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
+        order, each seeing the corrections before it; the fabric orders them in conflict-free
+        batches, so this equals solving each batch at once."""
+        zero = np.float32(0.0)
+        one = np.float32(1.0)
+        for r in range(virtual.shape[0]):
+            a = virtual[r, 0]
+            b = virtual[r, 1]
+            c = virtual[r, 2]
+            wa = weights[virtual[r, 3], 0]
+            wb = weights[virtual[r, 3], 1]
+            wc = weights[virtual[r, 3], 2]
+            ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
+            mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
+            mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
+            norm = ma * ma + mb * mb + mc * mc
+            if norm <= zero:
                 continue
-            share = m / norm
-            cur[particle, 0] += cx * share
-            cur[particle, 1] += cy * share
-            cur[particle, 2] += cz * share
-            cur[particle, 3] *= one + (scale - one) * m
+            px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
+            py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
+            pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
+            qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
+            qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
+            qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
+            # the point's own continuous move (to where it hit, on the side it came from) is part
+            # of its correction, shared out like the push-out
+            # closure constants: numba prunes the branches not taken before typing them
+            if with_meshes:
+                if with_convexes:
+                    if with_continuous:
+                        result = point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                    else:
+                        result = _with_both(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                elif with_continuous:
+                    result = _with_meshes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                else:
+                    result = _with_meshes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            elif with_convexes:
+                if with_continuous:
+                    result = _with_convexes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                else:
+                    result = _with_convexes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            elif with_continuous:
+                result = _spheres_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            else:
+                result = _spheres_only(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = result
+            if count == 0 and mx == zero and my == zero and mz == zero:
+                continue
+            cx = mx
+            cy = my
+            cz = mz
+            scale = one
+            if count > 0:
+                fx, fy, fz = friction_correction(
+                    px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
+                )
+                cx += dx + fx
+                cy += dy + fy
+                cz += dz + fz
+            if count > 0 and mass_scale > 0.0:
+                square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
+                scale = one / (one + mass_scale * square)
+            for particle, m in ((a, ma), (b, mb), (c, mc)):
+                if m == zero:
+                    continue
+                share = m / norm
+                cur[particle, 0] += cx * share
+                cur[particle, 1] += cy * share
+                cur[particle, 2] += cz * share
+                cur[particle, 3] *= one + (scale - one) * m
+
+
+    return collide_virtual
+
+
+@functools.lru_cache(maxsize=None)
+def collide_virtual_for(meshes: bool, convexes: bool, continuous: bool):
+    """The virtual-particle kernel that handles mesh colliders, convex colliders and
+    continuous collision only when asked (same arguments and results as ``collide_virtual``)."""
+    dispatcher = kernel(_make_collide_virtual(meshes, convexes, continuous))
+    dispatcher.frame_import = f"collide_virtual_for({meshes}, {convexes}, {continuous})"  # for frame functions
+    return dispatcher
+
+
+collide_virtual = collide_virtual_for(True, True, True)
