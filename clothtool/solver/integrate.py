@@ -24,6 +24,12 @@ from clothtool.solver.stage import Stage
 class IntegrateStage(Stage):
     name = "integrate"
 
+    def __init__(self, solver):
+        super().__init__(solver)
+        # what holds the cloth does not change during a bake
+        self.free = self._free_cloth()
+        self.mean = np.zeros(3, np.float64)  # integrate_free's mean displacement
+
     def begin_frame(self, plan: FramePlan) -> None:
         self.real = self.solver.state.cur.dtype.type  # float32, or float64 for references
         self.gravity_bias = (self.solver.gravity * plan.h * plan.h).astype(self.real)
@@ -31,9 +37,6 @@ class IntegrateStage(Stage):
         # the damping's share of a free cloth's mean motion, r - scale per iteration, in float64
         # (scale may be a float32, and r - scale rounded to float32 would leak ~1e-8 of the momentum)
         self.spared = self.solver.frame_ratios - self.solver.frame_scales
-        if not hasattr(self, "free"):  # what holds the cloth does not change during a bake
-            self.free = self._free_cloth()
-            self.mean = np.zeros(3, np.float64)
 
     def _free_cloth(self) -> bool:
         """True when nothing holds the cloth (module docstring): its damping then spares its
@@ -41,7 +44,7 @@ class IntegrateStage(Stage):
         solver, model = self.solver, self.solver.model
         return bool(
             solver.track is None
-            and getattr(solver, "attachment", None) is None
+            and solver.attachment is None
             and model.backstop_centers is None
             and (model.inv_mass > 0).all()
             and not np.isfinite(model.max_distance).any()
@@ -52,7 +55,7 @@ class IntegrateStage(Stage):
         real = state.cur.dtype.type
         if self.solver.track is None:  # run() integrates in a moving frame exactly when the cloth follows a track
             integrate_linear(real(1.0), np.zeros(3, real), state.cur[:0], state.prev[:0])
-            if self._free_cloth():
+            if self.free:
                 integrate_free(real(1.0), 0.5, np.zeros(3, real), np.zeros(3, np.float64), state.cur[:0], state.prev[:0])
         else:
             eye = np.eye(3, dtype=real)

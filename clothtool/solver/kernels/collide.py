@@ -425,8 +425,8 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
             qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
             qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
             # the point's own continuous move (to where it hit, on the side it came from) is part
-            # of its correction, shared out like the push-out
-            # closure constants: numba prunes the branches not taken before typing them
+            # of its correction, shared out like the push-out. The variant for the collider kinds
+            # present: closure constants, so numba prunes the branches not taken before typing
             if with_meshes:
                 if with_convexes:
                     if with_continuous:
