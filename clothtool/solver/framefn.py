@@ -207,6 +207,28 @@ def _read_callees(path: Path | None) -> dict:
         return {}
 
 
+def _symbol(dispatcher, args: tuple) -> str:
+    """The machine-code symbol of ``dispatcher`` compiled for ``args`` (what a frame function
+    calls: clothtool.solver.framecall)."""
+    return dispatcher.overloads[tuple(args)].fndesc.llvm_func_name
+
+
+def _load_callees(namespace: dict, record: list) -> bool:
+    """Compile (or load) a cached frame function's callees; True when each has the symbol the
+    cached code calls. A callee compiled afresh in this process, or saved to the cache by
+    another process after the frame function was (two bakes filling one cache at once), gets
+    another symbol: loading the frame function then would call an unresolved symbol and crash,
+    so the caller compiles it afresh instead."""
+    for entry in record:
+        if len(entry) != 3:  # a record written before symbols were recorded
+            return False
+        alias, callee_types, symbol = entry
+        namespace[alias].compile(callee_types)
+        if _symbol(namespace[alias], callee_types) != symbol:
+            return False
+    return True
+
+
 def compile_for(function, arguments: tuple) -> None:
     """Compile (or load from the cache) ``function`` for the types of ``arguments`` without
     running it. Its kernels are called unlinked (clothtool.solver.framecall), so a cached
@@ -224,9 +246,7 @@ def compile_for(function, arguments: tuple) -> None:
     path = _callees_path(function)
     known = _read_callees(path) if path is not None else {}
     namespace = function.py_func.__globals__
-    if repr(types) in known:
-        for alias, callee_types in known[repr(types)]:
-            namespace[alias].compile(callee_types)
+    if repr(types) in known and _load_callees(namespace, known[repr(types)]):
         function.compile(types)
         return
     cache = function._cache
@@ -239,7 +259,9 @@ def compile_for(function, arguments: tuple) -> None:
     if path is None:
         return
     aliases = {id(value): name for name, value in namespace.items() if name.startswith("k")}
-    known[repr(types)] = sorted({(aliases[id(dispatcher)], args) for dispatcher, args in TYPED_CALLS}, key=repr)
+    known[repr(types)] = sorted(
+        {(aliases[id(dispatcher)], args, _symbol(dispatcher, args)) for dispatcher, args in TYPED_CALLS}, key=repr
+    )
     try:
         handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
         with os.fdopen(handle, "wb") as stream:
