@@ -6,9 +6,9 @@ it again to machine code: a frame function calling every stage kernel would pay 
 kernels' code generation a second time (seconds for the collision kernels). Here the call
 goes to the callee's already compiled symbol (the same machine code the stage-by-stage path
 runs): the caller only declares it. The callee must therefore be compiled or loaded in this
-process before the caller is, for the same argument types: a fresh compile types (and so
-compiles) every callee, and ``callee_signatures`` records them so that a frame function
-loaded from the cache can first load its callees (clothtool.solver.framefn).
+process before the caller is, for the same argument types: the frame function is compiled
+in-process (never loaded from disk), and typing it compiles or loads every callee
+(clothtool.solver.framefn.compile_for).
 """
 
 from __future__ import annotations
@@ -16,16 +16,12 @@ from __future__ import annotations
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-# (dispatcher, argument types) of every call_kernel typed since the list was last emptied
-TYPED_CALLS: list[tuple[object, tuple]] = []
-
 
 @intrinsic
 def call_kernel(typingctx, kernel, args):
     """Call the numba dispatcher ``kernel`` (a global) with the tuple ``args``."""
     signature = kernel.get_call_type(typingctx, tuple(args.types), {})
     dispatcher = kernel.dispatcher
-    TYPED_CALLS.append((dispatcher, signature.args))
 
     def codegen(context, builder, sig, llargs):
         compiled = dispatcher.get_compile_result(signature)

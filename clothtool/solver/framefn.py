@@ -19,8 +19,9 @@ needs appear, so a scene's frame function compiles only its own kernels.
 Caching: the generated module is written to the kernel cache's key directory under a name
 that is the hash of its source (clothtool._kernel_cache: the key already covers every
 package source, so a changed kernel gives a new key; the file's own contents stamp its
-compiled entry), and compiled through ``clothtool._jit.kernel`` like every kernel, so a
-second process loads it. Without a usable cache directory it is compiled in memory.
+compiled entry). The frame function itself is compiled in each process, never loaded from
+the disk cache (``compile_for`` says why). Without a usable cache directory the module is
+compiled in memory.
 """
 
 from __future__ import annotations
@@ -29,7 +30,6 @@ import dataclasses
 import hashlib
 import importlib.util
 import os
-import pickle
 import sys
 import tempfile
 from pathlib import Path
@@ -191,85 +191,22 @@ class FusedFrame:
         return self.function, values, new
 
 
-def _callees_path(function) -> Path | None:
-    """The file beside a generated module that records its callees' signatures."""
-    source_file = function.py_func.__code__.co_filename
-    return Path(source_file).with_suffix(".callees.pkl") if os.path.exists(source_file) else None
-
-
-def _read_callees(path: Path | None) -> dict:
-    if path is None:
-        return {}
-    try:
-        with open(path, "rb") as stream:
-            return pickle.load(stream)
-    except (OSError, TypeError, pickle.PickleError, EOFError, AttributeError, ImportError):
-        return {}
-
-
-def _symbol(dispatcher, args: tuple) -> str:
-    """The machine-code symbol of ``dispatcher`` compiled for ``args`` (what a frame function
-    calls: clothtool.solver.framecall)."""
-    return dispatcher.overloads[tuple(args)].fndesc.llvm_func_name
-
-
-def _load_callees(namespace: dict, record: list) -> bool:
-    """Compile (or load) a cached frame function's callees; True when each has the symbol the
-    cached code calls. A callee compiled afresh in this process, or saved to the cache by
-    another process after the frame function was (two bakes filling one cache at once), gets
-    another symbol: loading the frame function then would call an unresolved symbol and crash,
-    so the caller compiles it afresh instead."""
-    for entry in record:
-        if len(entry) != 3:  # a record written before symbols were recorded
-            return False
-        alias, callee_types, symbol = entry
-        namespace[alias].compile(callee_types)
-        if _symbol(namespace[alias], callee_types) != symbol:
-            return False
-    return True
-
-
 def compile_for(function, arguments: tuple) -> None:
-    """Compile (or load from the cache) ``function`` for the types of ``arguments`` without
-    running it. Its kernels are called unlinked (clothtool.solver.framecall), so a cached
-    entry may only load once its callees are: the signatures they were compiled for are
-    recorded beside the module and loaded first; without that record the function is
-    compiled afresh (which compiles its callees) and then saved with it."""
+    """Compile ``function`` for the types of ``arguments`` without running it, in this
+    process, never from the disk cache. Its kernels are called unlinked
+    (clothtool.solver.framecall): a cached frame function calls its callees' symbols as they
+    were when it was saved, and a cache filled by two processes at once (parallel bakes,
+    pytest -n 2) could hold callees saved by the other process under other symbols: loading
+    it then segfaulted. Compiled here, it calls the symbols this process has (about 0.7 s for
+    the walk, once per process; the kernels themselves still come from the cache)."""
     import numba
     from numba.core.caching import NullCache
-
-    from clothtool.solver.framecall import TYPED_CALLS
 
     types = tuple(numba.typeof(value) for value in arguments)
     if types in function.overloads:
         return
-    path = _callees_path(function)
-    known = _read_callees(path) if path is not None else {}
-    namespace = function.py_func.__globals__
-    if repr(types) in known and _load_callees(namespace, known[repr(types)]):
-        function.compile(types)
-        return
-    cache = function._cache
     function._cache = NullCache()
-    TYPED_CALLS.clear()
-    try:
-        function.compile(types)
-    finally:
-        function._cache = cache
-    if path is None:
-        return
-    aliases = {id(value): name for name, value in namespace.items() if name.startswith("k")}
-    known[repr(types)] = sorted(
-        {(aliases[id(dispatcher)], args, _symbol(dispatcher, args)) for dispatcher, args in TYPED_CALLS}, key=repr
-    )
-    try:
-        handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(handle, "wb") as stream:
-            pickle.dump(known, stream)
-        os.replace(temporary, path)
-    except OSError:
-        return
-    cache.save_overload(types, function.overloads[types])
+    function.compile(types)
 
 
 def stacked(values, dtype) -> np.ndarray:
