@@ -75,6 +75,7 @@ frames = [0, {frames}]
 [solver]
 preset = "production"
 frequency = {frequency}
+precision = "{precision}"
 continuous_collision = {ccd}
 self_collision = {self_collision}
 [output]
@@ -89,7 +90,8 @@ def _vec(values) -> str:
     return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
-def prepare(folder: Path, n: int, variant: str, fps: float, frequency: float, frames: int) -> None:
+def prepare(folder: Path, n: int, variant: str, fps: float, frequency: float, frames: int,
+            precision: str = "float64") -> None:
     """Write the scene for clothtool (scene.toml, sheet.fabric.h5) and for nvbench (mesh.bin,
     nv.cfg) into ``folder``."""
     sphere, capsules, ccd, self_collision = VARIANTS[variant]
@@ -101,7 +103,7 @@ def prepare(folder: Path, n: int, variant: str, fps: float, frequency: float, fr
     fabric = cook_fabric(mesh.replace(vertex_attrs={"pin": pin}), CookOptions(pin_attr="pin", tethers="geodesic")).fabric
     write_fabric(fabric, folder / "sheet.fabric.h5")
     text = SCENE.format(
-        fps=fps, frames=frames, frequency=frequency, ccd=str(ccd).lower(), self_collision=str(self_collision).lower(),
+        fps=fps, frames=frames, frequency=frequency, precision=precision, ccd=str(ccd).lower(), self_collision=str(self_collision).lower(),
         distance=0.75 * spacing if self_collision else 0.0,
     )
     if sphere:
@@ -197,12 +199,15 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--rows", default="plain,garment,sphere,self", help=f"sections: {','.join(ROWS)}")
+    parser.add_argument("--precision", choices=("float64", "float32"), default="float64",
+                        help="clothtool's particle state (NvCloth's is float32; the default is clothtool's)")
     parser.add_argument("--work", type=Path, help="keep the scenes here (default: a temporary folder)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         work = args.work or Path(tmp)
         nv_header = " | NvCloth | loop / NvCloth | bake / NvCloth" if args.nvbench else ""
-        print(f"CPU ms per frame, median of {args.repeats} interleaved runs, {args.frames} frames")
+        print(f"CPU ms per frame, median of {args.repeats} interleaved runs, {args.frames} frames, "
+              f"clothtool state in {args.precision}")
         print(f"| scene | N | clothtool loop | clothtool bake(){nv_header} |")
         print("|---|---|---|---" + ("|---|---|---" if args.nvbench else "") + "|")
         for section in args.rows.split(","):
@@ -210,7 +215,7 @@ def main() -> None:
                 for variant in variants:
                     for n in sizes:
                         folder = work / f"{section}-{variant}-{n}"
-                        prepare(folder, n, variant, fps, frequency, args.frames)
+                        prepare(folder, n, variant, fps, frequency, args.frames, args.precision)
                         runs = {"loop": [], "bake": [], "nv": []}
                         for _ in range(args.repeats):
                             runs["loop"].append(clothtool_loop(folder))
