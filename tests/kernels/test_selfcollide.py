@@ -19,9 +19,10 @@ from tests.reference import selfcollide as ref
 seeds = st.integers(0, 2**32 - 1)
 
 
-def grid_buffers(m: int):
-    """bucket_start, order, sorted_points, sorted_cell for m points (B >= 2m buckets)."""
-    buckets = 1 << max(1, int(2 * m - 1).bit_length())
+def grid_buffers(m: int, buckets: int | None = None):
+    """bucket_start, order, sorted_points, sorted_cell for m points (B >= 2m buckets unless
+    given)."""
+    buckets = 1 << max(1, int(2 * m - 1).bit_length()) if buckets is None else buckets
     starts, order = np.zeros(buckets + 1, np.int32), np.zeros(m, np.int32)
     return starts, order, np.zeros((m, 4), np.float32), np.zeros((m, 3), np.int32)
 
@@ -43,12 +44,12 @@ def scene(rng, own: int, others: int, spacing: float = 0.1, pinned: float = 0.2)
     return points, rest, segment
 
 
-def collide(kernel, points, rest, segment, distances, stiffness, inv_cell=None, reference=False):
+def collide(kernel, points, rest, segment, distances, stiffness, inv_cell=None, reference=False, buckets=None):
     """Build the grid (cells twice the largest distance unless given) and collide; returns
     the own particles after the kernel (or the reference)."""
     own = rest.shape[0]
     inv_cell = F32(0.5 / distances.max()) if inv_cell is None else inv_cell
-    starts, order, sorted_points, sorted_cell = grid_buffers(points.shape[0])
+    starts, order, sorted_points, sorted_cell = grid_buffers(points.shape[0], buckets)
     build_grid(points, inv_cell, starts, order, sorted_points, sorted_cell)
     cur = points[:own].copy()
     args = (sorted_points, sorted_cell, starts, order, rest, segment, distances, inv_cell, stiffness)
@@ -113,6 +114,21 @@ def test_collide_matches_brute_force(seed, own, others, self_on):
     assert not moved[points[:own, 3] == 0].any(), "a pinned particle moved"
     if own > 30 and others > 30:
         assert moved.any(), "the setup should produce contacts"
+
+
+@settings(max_examples=15)
+@given(seed=seeds, buckets=st.sampled_from([2, 4, 8, 16]))
+def test_collide_with_crowded_buckets_matches_brute_force(seed, buckets):
+    """So few buckets that a query's rows of cells share buckets: the kernel must then tell
+    the cells apart and count no point twice (with many buckets it skips that test)."""
+    rng = np.random.default_rng(seed)
+    points, rest, segment = scene(rng, 150, 60)
+    distances = f32([0.15, 0.2, 0.1])
+    want = collide(None, points, rest, segment, distances, F32(0.8), reference=True, buckets=buckets)
+    for kernel in (collide_points, collide_points_parallel):
+        got = collide(kernel, points, rest, segment, distances, F32(0.8), buckets=buckets)
+        assert_close(got, want, 64 * U * 0.25 + 4 * U * 1.0, "cur")
+        assert np.any(got != points[:150])
 
 
 @settings(max_examples=10)
