@@ -14,7 +14,7 @@ from clothtool.cook import locality, paint
 from clothtool.cook.adjacency import AdjacencyQuerier
 from clothtool.cook.phases import build_phases
 from clothtool.cook.tethers import build_tethers
-from clothtool.cook.triplets import TripletScheduler
+from clothtool.mesh.coloring import TripletScheduler
 from clothtool.cook.virtual import WEIGHT_PATTERNS, build_virtual_particles
 from clothtool.errors import MeshError
 from clothtool.fabric import Fabric, PhaseType

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.cook.triplets import Schedule, TripletScheduler
+from clothtool.mesh.coloring import Schedule, TripletScheduler
 from clothtool.fabric import VIRTUAL_BATCH_WIDTH
 
 # Barycentric weight patterns per triangle, by count: the centroid, and/or points two thirds

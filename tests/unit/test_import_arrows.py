@@ -40,7 +40,6 @@ KNOWN = {
     "clothtool.scene.usdbodies -> clothtool.io.usd_env",
     "clothtool.scene.usdstage -> clothtool.cook.cooker",
     "clothtool.scene.usdstage -> clothtool.io.meshin",
-    "clothtool.solver.wind -> clothtool.cook.triplets",
 }
 
 
