@@ -18,11 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from clothtool.collision.colliders import ColliderArrays, ColliderInfo
 from clothtool.errors import ClothtoolError, SceneError
 from clothtool.inputs import note_input
-from clothtool.io.cache import ColliderInfo
 from clothtool.scene.tracks import Track
-from clothtool.solver.colliders import ColliderArrays
 
 KINDS = ("sphere", "capsule", "plane", "convex", "mesh")
 COMMON_KEYS = ("kind", "track", "thickness", "friction")

@@ -16,8 +16,10 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parents[2] / "clothtool"
 
-# Neutral modules: anything may import them; they import only each other.
-NEUTRAL = {"errors", "inputs", "resources", "presets", "settings", "_jit", "_kernel_cache", "_simd", "_simd_python", "fabric", "mesh", "__init__"}
+# Neutral modules: anything may import them; they import only each other. ``collision`` holds
+# the collider values (DESIGN.md's neutral collision layer), ``usd_env`` how pxr is run.
+NEUTRAL = {"errors", "inputs", "resources", "presets", "settings", "_jit", "_kernel_cache", "_simd", "_simd_python", "fabric",
+           "mesh", "collision", "usd_env", "__init__"}
 # What each layer may import besides the neutral modules.
 ALLOWED = {
     "cook": set(),
@@ -31,13 +33,10 @@ ALLOWED = {
 TOP = {"cli", "__main__"}
 
 KNOWN = {
-    "clothtool.scene.colliders -> clothtool.io.cache",
     "clothtool.scene.colliders -> clothtool.io.meshin",
-    "clothtool.scene.colliders -> clothtool.solver.colliders",
     "clothtool.scene.scene -> clothtool.cook.cooker",
     "clothtool.scene.scene -> clothtool.io.fabric_file",
     "clothtool.scene.scene -> clothtool.io.meshin",
-    "clothtool.scene.usdbodies -> clothtool.io.usd_env",
     "clothtool.scene.usdstage -> clothtool.cook.cooker",
     "clothtool.scene.usdstage -> clothtool.io.meshin",
 }
