@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Sequence
 from pathlib import Path
 
 from clothtool.cook.cooker import CookOptions, cook_fabric
@@ -57,16 +58,16 @@ def scene_loaders() -> SceneLoaders:
 
 
 def load_scene(
-    path: str | Path, overrides: list[str] = (), frames: tuple[int, int] | None = None, strict: bool = False
+    path: str | Path, overrides: Sequence[str] = (), frames: tuple[int, int] | None = None, strict: bool = False
 ) -> Scene:
     """Read and validate a TOML scene (``clothtool.scene.scene``); ``strict`` makes mesh
     repairs of cloths cooked on the fly errors."""
-    return read_scene(path, scene_loaders(), overrides, frames, strict)
+    return read_scene(path, scene_loaders(), list(overrides), frames, strict)
 
 
 def load_usd_scene(
     path: str | Path,
-    overrides: list[str] = (),
+    overrides: Sequence[str] = (),
     frames: tuple[int, int] | None = None,
     strict: bool = False,
     cloth: tuple[str, ...] = (),
@@ -74,12 +75,12 @@ def load_usd_scene(
 ) -> Scene:
     """The Scene of a USD stage (``clothtool.scene.usdstage``); ``cloth`` prim paths and
     ``collider`` patterns replace the marked prims."""
-    return read_usd_scene(path, scene_loaders(), overrides, frames, strict=strict, cloth=tuple(cloth), collider=tuple(collider))
+    return read_usd_scene(path, scene_loaders(), list(overrides), frames, strict=strict, cloth=tuple(cloth), collider=tuple(collider))
 
 
 def load_any_scene(
     path: str | Path,
-    overrides: list[str] = (),
+    overrides: Sequence[str] = (),
     frames: tuple[int, int] | None = None,
     strict: bool = False,
     cloth: tuple[str, ...] = (),
