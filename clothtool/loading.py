@@ -4,7 +4,8 @@ DESIGN.md's imports flow one way, and the scene layer imports neither io nor the
 module sits above all three (with the bake) and hands the scene readers a ``SceneLoaders``
 (``clothtool.scene.loaders``) made of io's mesh and fabric readers and the cook. Its
 ``load_scene``, ``load_usd_scene`` and ``load_any_scene`` are the entry points the CLI, the
-bake's callers, the tests and the benchmarks use.
+bake's callers, the tests and the benchmarks use. The cook and io's readers are imported when
+the first scene loads (the cook brings numba), not when this module is imported.
 """
 
 from __future__ import annotations
@@ -13,22 +14,25 @@ import dataclasses
 import functools
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.errors import UsageError
-from clothtool.fabric import Fabric
-from clothtool.io.fabric_file import read_fabric
-from clothtool.io.meshin import SUPPORTED_SUFFIXES, read_mesh
-from clothtool.mesh import ClothMesh
 from clothtool.presets import apply_mapping, load_preset
 from clothtool.scene.loaders import SceneLoaders
 from clothtool.scene.scene import Scene, read_scene
 from clothtool.scene.usdstage import is_usd_stage, read_usd_scene
 
+if TYPE_CHECKING:  # pragma: no cover
+    from clothtool.cook.cooker import CookOptions
+    from clothtool.fabric import Fabric
+    from clothtool.mesh import ClothMesh
+
 
 def _cook_options(table: dict, label: str, fixed: dict) -> CookOptions:
     """The cook's options from a scene's cook table: its ``preset`` first, then its keys
     (checked and typed, errors naming ``label``), then the ``fixed`` fields."""
+    from clothtool.cook.cooker import CookOptions
+
     table = dict(table)
     options = CookOptions()
     preset = table.pop("preset", None)
@@ -40,6 +44,8 @@ def _cook_options(table: dict, label: str, fixed: dict) -> CookOptions:
 
 
 def _cook(mesh: ClothMesh, options: CookOptions, digest: str) -> tuple[Fabric, tuple[str, ...]]:
+    from clothtool.cook.cooker import cook_fabric
+
     result = cook_fabric(mesh, options, digest)
     return result.fabric, tuple(result.warnings)
 
@@ -47,6 +53,10 @@ def _cook(mesh: ClothMesh, options: CookOptions, digest: str) -> tuple[Fabric, t
 @functools.cache
 def scene_loaders() -> SceneLoaders:
     """The loaders every scene read through this module uses."""
+    from clothtool.cook.cooker import CookOptions
+    from clothtool.io.fabric_file import read_fabric
+    from clothtool.io.meshin import SUPPORTED_SUFFIXES, read_mesh
+
     return SceneLoaders(
         read_mesh=read_mesh,
         read_fabric=read_fabric,
