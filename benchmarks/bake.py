@@ -27,8 +27,8 @@ from pathlib import Path
 from clothtool.bake import bake
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 
 NVCLOTH_128_CPU_MS = 1.3  # NvCloth's native CPU solver, 128^2, this machine class
 

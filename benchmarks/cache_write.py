@@ -113,7 +113,7 @@ def bake_one(config: str, n: int, frames: int, out_dir: Path) -> dict:
     from bake import scene_for
 
     from clothtool.bake import BakeOptions, bake
-    from clothtool.scene.scene import load_scene
+    from clothtool.loading import load_scene
 
     suffix, options = CONFIGS[config]
     scene_for(n, frames, out_dir)  # writes the fabric and scene.toml

@@ -28,7 +28,7 @@ CHILD = """
 import json, sys, time
 from clothtool.bake import make_solvers, simulate_frame
 from clothtool.profile import StageProfiler
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 from clothtool.solver.measure import ClothMeter
 
 scene = load_scene(sys.argv[1])  # cooks the skirt on the fly: compiles (or loads) the cook kernels

@@ -21,8 +21,8 @@ from pathlib import Path
 from clothtool.bake import BakeOptions, bake
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 
 BASE = """
 [scene]

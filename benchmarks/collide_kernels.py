@@ -17,12 +17,12 @@ import time
 
 import numpy as np
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
 from clothtool.settings import Material, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
-from clothtool.solver.colliders import ColliderArrays
 from clothtool.solver.environment import Environment
 from clothtool.solver.model import build_model
 

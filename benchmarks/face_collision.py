@@ -28,7 +28,7 @@ sys.path.insert(0, str(REPO))
 
 from clothtool.bake import BakeOptions, bake  # noqa: E402
 from clothtool.io.cache import read_cache  # noqa: E402
-from clothtool.scene.scene import load_scene  # noqa: E402
+from clothtool.loading import load_scene  # noqa: E402
 from clothtool.solver.penetration import round_cone_distance  # noqa: E402
 
 WALK = REPO / "examples" / "skirt" / "walk.toml"
@@ -61,7 +61,7 @@ def run(out: Path, face_collision: bool, repeat: int) -> dict:
 def run_shot(out: Path, face_collision: bool, repeat: int) -> dict:
     """The example shot's bake with or without face collision: collide ms/frame (median) and
     the face penetration of the body from the report."""
-    from clothtool.scene.usdstage import load_usd_scene
+    from clothtool.loading import load_usd_scene
 
     rows = []
     for _ in range(repeat):

@@ -22,9 +22,9 @@ from clothtool.bake import bake, make_solvers
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
 from clothtool.io.memory import MemoryCacheWriter
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
-from clothtool.scene.scene import load_scene
 from clothtool.study import position_errors
 
 SCENE = """

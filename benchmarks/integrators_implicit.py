@@ -20,13 +20,13 @@ import time
 
 import numpy as np
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.fabric import Fabric
 from clothtool.integrators.implicit.solver import ImplicitClothSolver
 from clothtool.mesh.shapes import grid
 from clothtool.mesh.topology import vertex_areas
 from clothtool.profile import StageProfiler
 from clothtool.settings import Placement, SolverConfig, load_material
-from clothtool.solver.colliders import ColliderArrays
 from clothtool.solver.environment import Environment
 from clothtool.solver.model import build_model
 

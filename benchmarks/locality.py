@@ -40,10 +40,10 @@ from clothtool.bake import make_solvers  # noqa: E402
 from clothtool.cook import locality  # noqa: E402
 from clothtool.cook.cooker import CookOptions, cook_fabric  # noqa: E402
 from clothtool.io.fabric_file import write_fabric  # noqa: E402
+from clothtool.loading import load_scene  # noqa: E402
 from clothtool.mesh.clothmesh import ClothMesh  # noqa: E402
 from clothtool.mesh.shapes import grid  # noqa: E402
 from clothtool.profile import StageProfiler  # noqa: E402
-from clothtool.scene.scene import load_scene  # noqa: E402
 
 SCENE = """
 [scene]

@@ -41,9 +41,9 @@ import numpy as np
 from clothtool.bake import bake, make_solvers
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
-from clothtool.scene.scene import load_scene
 
 SPHERE = dict(center=(0.5, -1.1, 0.05), radius=0.3)
 # two "legs" and a "body" 0.05-0.08 m in front of the sheet's plane, so that they cut into it

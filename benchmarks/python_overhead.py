@@ -25,7 +25,7 @@ from pathlib import Path
 from numba.core.registry import CPUDispatcher
 
 from clothtool.bake import BakeOptions, bake
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 
 REPO = Path(__file__).resolve().parents[1]
 

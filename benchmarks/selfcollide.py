@@ -31,9 +31,9 @@ import numpy as np
 from clothtool.bake import bake
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
-from clothtool.scene.scene import load_scene
 from clothtool.settings import Material, Placement, SolverConfig
 from clothtool.solver.cloth import ClothSolver
 from clothtool.solver.environment import Environment

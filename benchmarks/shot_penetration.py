@@ -26,7 +26,7 @@ from pxr import Usd, UsdGeom
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
-from clothtool.scene.usdstage import load_usd_scene
+from clothtool.loading import load_usd_scene
 
 
 def winding_numbers(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -9,8 +9,8 @@ from pathlib import Path
 
 from clothtool.inputs import recording_inputs, refuse_output_onto_input
 from clothtool.io.cache import NULL_OUTPUTS, check_cache_output_name, partial_path
+from clothtool.loading import load_any_scene
 from clothtool.scene.scene import Scene
-from clothtool.scene.usdstage import load_any_scene
 from clothtool.workload import check_workload
 
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from clothtool.bake import BakeOptions, bake
 from clothtool.errors import UnstableError
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 
 GRID = 6  # particles per side of the warm-up cloths
 

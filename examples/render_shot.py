@@ -40,7 +40,7 @@ def render(shot: Path, cache: Path, frame: int, output: Path) -> None:
     import matplotlib.pyplot as plt
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from clothtool.scene.usdstage import load_usd_scene
+    from clothtool.loading import load_usd_scene
 
     scene = load_usd_scene(shot)
     body = scene.colliders.at(frame / scene.fps)

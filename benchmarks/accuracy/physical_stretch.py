@@ -42,8 +42,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from clothtool.bake import make_solvers  # noqa: E402
+from clothtool.loading import load_scene  # noqa: E402
 from clothtool.profile import StageProfiler  # noqa: E402
-from clothtool.scene.scene import load_scene  # noqa: E402
 from clothtool.solver.fabric import constraint_compliance  # noqa: E402
 from clothtool.study import _bake_once  # noqa: E402
 

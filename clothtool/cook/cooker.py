@@ -14,12 +14,12 @@ from clothtool.cook import locality, paint
 from clothtool.cook.adjacency import AdjacencyQuerier
 from clothtool.cook.phases import build_phases
 from clothtool.cook.tethers import build_tethers
-from clothtool.cook.triplets import TripletScheduler
 from clothtool.cook.virtual import WEIGHT_PATTERNS, build_virtual_particles
 from clothtool.errors import MeshError
 from clothtool.fabric import Fabric, PhaseType
 from clothtool.mesh import topology
 from clothtool.mesh.clothmesh import ClothMesh
+from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.prepare import bounding_box_diagonal, prepare_mesh
 
 UP_VECTORS = {"Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}

@@ -6,7 +6,7 @@ frame; when a constraint's two particles lie far apart in memory, each touch of 
 is a cache miss. The cook therefore renumbers the particles by the reverse Cuthill-McKee
 order of the mesh's edge graph (scipy), which keeps every edge's two particles within a
 narrow band of indices; the scheduler then sorts each set's constraints by particle index
-(clothtool.cook.triplets), so a sweep walks memory almost sequentially.
+(clothtool.mesh.coloring), so a sweep walks memory almost sequentially.
 
 Reverse Cuthill-McKee was measured against a 3-D Morton (Z-order) curve over the rest
 positions (``python benchmarks/locality.py``, one thread, CPU ns per particle-iteration): on a

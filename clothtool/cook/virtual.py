@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.cook.triplets import Schedule, TripletScheduler
 from clothtool.fabric import VIRTUAL_BATCH_WIDTH
+from clothtool.mesh.coloring import Schedule, TripletScheduler
 
 # Barycentric weight patterns per triangle, by count: the centroid, and/or points two thirds
 # of the way from the centroid towards each corner (which cover a triangle evenly).

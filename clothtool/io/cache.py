@@ -23,6 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
+from clothtool.collision.colliders import ColliderInfo  # the scene builds it, the writers store it
 from clothtool.errors import FormatError, UsageError
 
 
@@ -49,28 +50,6 @@ class ClothTopology:
     @property
     def particle_count(self) -> int:
         return int(self.rest_pos.shape[0])
-
-
-@dataclasses.dataclass(frozen=True)
-class ColliderInfo:
-    """A collider written to the cache as an animated transform.
-
-    Attributes:
-        name: valid prim / group name.
-        kind: "sphere", "capsule", "plane", "convex" or "mesh".
-        params: shape parameters in scene units: sphere {"radius"}; capsule {"radius0",
-            "radius1", "length"} (axis +X from -length/2 to +length/2 in the local frame);
-            plane {} (normal +Y through the local origin); convex {"planes": (m,4) array};
-            mesh {} with the topology below.
-        face_vertex_counts, face_vertex_indices, rest_points: mesh colliders only.
-    """
-
-    name: str
-    kind: str
-    params: dict = dataclasses.field(default_factory=dict)
-    face_vertex_counts: np.ndarray | None = None
-    face_vertex_indices: np.ndarray | None = None
-    rest_points: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)

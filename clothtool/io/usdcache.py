@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-import clothtool.io.usd_env  # noqa: F401  (before pxr: how crate files are read)
+import clothtool.usd_env  # noqa: F401  (before pxr: how crate files are read)
 from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
 
 from clothtool import __version__

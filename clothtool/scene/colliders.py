@@ -3,9 +3,10 @@
 Each ``[collider.NAME]`` has a ``kind`` (sphere, capsule, plane, convex, mesh), geometry in
 its own local coordinates, an optional ``track`` that moves it (local -> world, with
 scale), a ``thickness`` (margin, scene units) and a ``friction`` coefficient. Mesh colliders
-come from any mesh file ``clothtool cook`` reads and may deform with per-frame points from an
-NPZ file (arrays ``frame`` (k,) and ``points`` (k, m, 3), in the mesh file's units). In a USD
-file ``prim`` picks the mesh; a prim that moves (time-sampled points or transform) or is skinned
+come from any mesh file ``clothtool cook`` reads (read by the scene's loaders,
+``clothtool.scene.loaders``) and may deform with per-frame points from an NPZ file (arrays
+``frame`` (k,) and ``points`` (k, m, 3), in the mesh file's units). In a USD file ``prim``
+picks the mesh; a prim that moves (time-sampled points or transform) or is skinned
 with UsdSkel is read as a USD stage's bodies are (``clothtool.scene.usdbodies``) over the
 scene's frames. A mesh file that says its units (USD's metersPerUnit and upAxis, glTF) is
 brought into the scene's units (``clothtool.scene.bodyunits``).
@@ -18,11 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
+from clothtool.collision.colliders import ColliderArrays, ColliderInfo
 from clothtool.errors import ClothtoolError, SceneError
 from clothtool.inputs import note_input
-from clothtool.io.cache import ColliderInfo
 from clothtool.scene.tracks import Track
-from clothtool.solver.colliders import ColliderArrays
 
 KINDS = ("sphere", "capsule", "plane", "convex", "mesh")
 COMMON_KEYS = ("kind", "track", "thickness", "friction")
@@ -297,13 +297,12 @@ def _planes(ctx, table: dict, where: str) -> np.ndarray:
 
 
 def _mesh(ctx, table: dict, where: str, shot: Shot):
-    from clothtool.io.meshin import read_mesh
     from clothtool.mesh import topology
     from clothtool.mesh.units import unit_change
 
     path = ctx.base / str(table["mesh"])
     try:
-        mesh = read_mesh(path, table.get("prim"))
+        mesh = ctx.loaders.read_mesh(path, table.get("prim"))
     except ClothtoolError as exc:
         ctx.fail(where, f"mesh: {exc}")
     triangles, _ = topology.triangulate(mesh.face_vertex_counts, mesh.face_vertex_indices)

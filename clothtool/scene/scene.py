@@ -1,8 +1,10 @@
 """Scenes: a versioned TOML file (``formats/scene/v1.md``) turned into a validated Scene.
 
-``load_scene(path, overrides)`` reads the TOML, applies ``--set`` overrides to the raw
-tables, checks every key (unknown keys are errors that list the allowed ones), resolves
+``read_scene(path, loaders, overrides)`` reads the TOML, applies ``--set`` overrides to the
+raw tables, checks every key (unknown keys are errors that list the allowed ones), resolves
 paths relative to the scene file, loads or cooks each cloth's fabric and loads the presets.
+Mesh and fabric files are read, and meshes cooked, by the ``loaders``
+(``clothtool.scene.loaders``); ``clothtool.loading.load_scene`` passes io's and the cook's.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import numpy as np
 from clothtool.errors import ClothtoolError, SceneError
 from clothtool.fabric import Fabric
 from clothtool.presets import read_toml
+from clothtool.scene.loaders import SceneLoaders
 from clothtool.scene.overrides import Named, apply_overrides, check_override_keys
 from clothtool.scene.trackload import TRACK_KEYS, load_track
 from clothtool.scene.tracks import Track, euler_xyz_to_quat, quat_to_matrix
@@ -107,11 +110,13 @@ class Scene:
 
 
 class _Context:
-    """Error messages name the scene file and the table/key."""
+    """Error messages name the scene file and the table/key; ``loaders`` read the files the
+    scene names."""
 
-    def __init__(self, path: Path):
+    def __init__(self, path: Path, loaders: SceneLoaders):
         self.path = path
         self.base = path.parent
+        self.loaders = loaders
 
     def fail(self, where: str, message: str):
         raise SceneError(f"{self.path}: [{where}] {message}")
@@ -228,20 +233,15 @@ def _fabric_of(ctx: _Context, name: str, table: dict, strict: bool) -> tuple[str
     where = f"cloth.{name}"
     if ("fabric" in table) == ("mesh" in table):
         ctx.fail(where, "give either 'fabric' (a cooked .fabric.h5) or 'mesh' (cooked when the scene loads)")
+    loaders = ctx.loaders
     if "fabric" in table:
-        from clothtool.io.fabric_file import read_fabric
-
         if "cook" in table:
             ctx.fail(where, "key 'cook' applies to 'mesh' only; cook options of a fabric were fixed when it was cooked")
         source = str(table["fabric"])
         try:
-            return source, read_fabric(ctx.base / source), ()
+            return source, loaders.read_fabric(ctx.base / source), ()
         except ClothtoolError as exc:
             ctx.fail(where, f"fabric: {exc}")
-    from clothtool.cook.cooker import CookOptions, cook_fabric
-    from clothtool.io.meshin import read_mesh
-    from clothtool.presets import apply_mapping, load_preset
-
     source = str(table["mesh"])
     cook = table.get("cook", {})
     if isinstance(cook, str):
@@ -250,21 +250,15 @@ def _fabric_of(ctx: _Context, name: str, table: dict, strict: bool) -> tuple[str
         ctx.fail(where, "key 'cook' must be a table of cook options (or a cook preset name)")
     cook = dict(cook)
     try:
-        options = CookOptions()
-        preset = cook.pop("preset", None)
-        if preset is not None:
-            mapping, label = load_preset("cook", preset)
-            options = apply_mapping(options, mapping, label)
         if "pin_file" in cook:
             cook["pin_file"] = str(ctx.base / str(cook["pin_file"]))
-        options = apply_mapping(options, cook, f"{ctx.path}: [{where}.cook]")
-        options = dataclasses.replace(options, strict=strict)
+        options = loaders.cook_options(cook, f"{ctx.path}: [{where}.cook]", {"strict": strict})
         mesh_path = ctx.base / source
-        mesh = read_mesh(mesh_path)
-        result = cook_fabric(mesh, options, hashlib.sha256(mesh_path.read_bytes()).hexdigest())
+        mesh = loaders.read_mesh(mesh_path, None)
+        fabric, warnings = loaders.cook(mesh, options, hashlib.sha256(mesh_path.read_bytes()).hexdigest())
     except ClothtoolError as exc:
         ctx.fail(where, f"mesh: {exc}")
-    return source, result.fabric, tuple(result.warnings)
+    return source, fabric, warnings
 
 
 def _cloth(ctx: _Context, name: str, table: dict, tracks: dict[str, Track], strict: bool) -> ClothInstance:
@@ -327,16 +321,16 @@ def _fields(cls) -> list[str]:
     return [f.name for f in dataclasses.fields(cls)]
 
 
-def override_schema() -> dict:
-    """The keys ``--set`` may name (see clothtool.scene.overrides.check_override_keys)."""
-    from clothtool.cook.cooker import CookOptions
+def override_schema(cook_keys: tuple[str, ...]) -> dict:
+    """The keys ``--set`` may name (see clothtool.scene.overrides.check_override_keys);
+    ``cook_keys`` are the cook's option names (``SceneLoaders.cook_keys``)."""
     from clothtool.scene.colliders import COMMON_KEYS, KIND_KEYS
     from clothtool.settings import PhaseSettings
 
     phase = _keys(_fields(PhaseSettings))
     phases = {label: phase for label in ("vertical", "horizontal", "shearing", "bending")}
     material = _keys(["preset", *_fields(Material)], phases)
-    cook = _keys(["preset", *_fields(CookOptions)])
+    cook = _keys(["preset", *cook_keys])
     cloth = _keys(CLOTH_KEYS, {
         "material": material, "cook": cook,
         "motion": _keys(("scale", "bias", "stiffness")), "backstop": _keys(("radius", "distance")),
@@ -364,14 +358,12 @@ def _nested(exc: ClothtoolError, path: Path, prefix: str) -> str:
 _MAGIC = {b"\x89HDF": "an HDF5 file (a fabric or a cache)", b"PXR-USDC": "a USD crate file", b"glTF": "a binary glTF mesh"}
 
 
-def _refuse_other_file_kinds(path: Path) -> None:
+def _refuse_other_file_kinds(path: Path, mesh_suffixes: tuple[str, ...]) -> None:
     """A fabric, cache or mesh given where a scene belongs gets a hint, not a TOML error."""
     with path.open("rb") as handle:
         head = handle.read(8)
-    from clothtool.io.meshin import SUPPORTED_SUFFIXES
-
     kind = next((what for magic, what in _MAGIC.items() if head.startswith(magic)), None)
-    if kind is None and path.suffix.lower() in SUPPORTED_SUFFIXES:
+    if kind is None and path.suffix.lower() in mesh_suffixes:
         kind = f"a mesh or USD file ({path.suffix})"
     if kind is not None:
         raise SceneError(
@@ -380,20 +372,24 @@ def _refuse_other_file_kinds(path: Path) -> None:
         )
 
 
-def load_scene(
-    path: str | Path, overrides: list[str] = (), frames: tuple[int, int] | None = None, strict: bool = False
+def read_scene(
+    path: str | Path,
+    loaders: SceneLoaders,
+    overrides: list[str] = (),
+    frames: tuple[int, int] | None = None,
+    strict: bool = False,
 ) -> Scene:
-    """Read and validate a scene file (see module docstring); ``strict`` makes mesh repairs
-    of cloths cooked on the fly errors."""
+    """Read and validate a scene file (see module docstring) with ``loaders``; ``strict``
+    makes mesh repairs of cloths cooked on the fly errors."""
     path = Path(path)
     if not path.exists():
         raise SceneError(f"{path}: scene file not found; check the path")
     if path.is_file():  # a device or FIFO is refused unread by read_toml
-        _refuse_other_file_kinds(path)
+        _refuse_other_file_kinds(path, loaders.mesh_suffixes)
     raw = read_toml(path, error=SceneError)  # refuses devices, FIFOs and huge files unread
-    check_override_keys(raw, list(overrides), override_schema())
+    check_override_keys(raw, list(overrides), override_schema(loaders.cook_keys))
     tables = apply_overrides(raw, list(overrides))
-    ctx = _Context(path)
+    ctx = _Context(path, loaders)
     unknown = [k for k in tables if k not in TOP_LEVEL_KEYS]
     if unknown:
         raise SceneError(f"{path}: unknown top-level key '{unknown[0]}'; allowed: {', '.join(TOP_LEVEL_KEYS)}")

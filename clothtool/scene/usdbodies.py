@@ -52,9 +52,9 @@ def open_stage(path: Path):
     """The composed stage of ``path``, its layers noted as inputs; SceneError when USD cannot open it."""
     from pxr import Usd
 
-    import clothtool.io.usd_env  # noqa: F401  (before pxr: how crate files are read)
+    import clothtool.usd_env  # noqa: F401  (before pxr: how crate files are read)
     from clothtool.inputs import note_input
-    from clothtool.io.usd_env import quiet_stderr
+    from clothtool.usd_env import quiet_stderr
 
     with quiet_stderr():
         try:
@@ -329,7 +329,7 @@ def skinning_targets(stage, source: str) -> dict:
     uses one reports it in one line)."""
     from pxr import Usd, UsdSkel
 
-    from clothtool.io.usd_env import quiet_stderr
+    from clothtool.usd_env import quiet_stderr
 
     with quiet_stderr():
         return _skinning_targets(stage, Usd, UsdSkel)
@@ -424,7 +424,7 @@ def body_collider(prim, name: str, clock: ShotClock, skinning, source: str, unit
     common = dict(name=name, thickness=thickness, friction=friction, fps=clock.tcps)
     none3, none1, no_planes = np.zeros((0, 3)), np.zeros(0), np.zeros((0, 4))
     if skinning is not None:
-        from clothtool.io.usd_env import quiet_stderr
+        from clothtool.usd_env import quiet_stderr
 
         if type_name != "Mesh":
             raise SceneError(

@@ -19,7 +19,6 @@ The stage gives what a TOML scene gives (``formats/scene/usd.md`` documents the 
 
 from __future__ import annotations
 
-import dataclasses
 import fnmatch
 import hashlib
 import re
@@ -27,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from clothtool.errors import ClothtoolError, SceneError, UsageError
+from clothtool.errors import ClothtoolError, SceneError
+from clothtool.scene.loaders import SceneLoaders
 from clothtool.scene.overrides import apply_overrides, check_override_keys
 from clothtool.scene.scene import (
     ClothInstance,
@@ -36,7 +36,6 @@ from clothtool.scene.scene import (
     _Context,
     _output_table,
     _scene_table,
-    load_scene,
     override_schema,
     preroll_of,
 )
@@ -139,8 +138,8 @@ def _stage_tables(stage, path: Path, frames) -> dict:
     return tables
 
 
-def _schema() -> dict:
-    schema = override_schema()
+def _schema(cook_keys: tuple[str, ...]) -> dict:
+    schema = override_schema(cook_keys)
     return {key: schema[key] for key in OVERRIDE_SECTIONS}
 
 
@@ -191,23 +190,17 @@ def _select(stage, path: Path, cloth_paths, collider_patterns):
     return cloths, colliders
 
 
-def _cook(source: Path, prim, options_table: dict, mpu: float, up_axis: str, strict: bool):
-    from clothtool.cook.cooker import CookOptions, cook_fabric
-    from clothtool.io.meshin import read_mesh
-    from clothtool.presets import apply_mapping, load_preset
-
+def _cook(loaders: SceneLoaders, source: Path, prim, options_table: dict, mpu: float, up_axis: str, strict: bool):
+    """(mesh, fabric, cook warnings) of the cloth ``prim`` of the stage in ``source``."""
     where = f"{source}: prim {prim.GetPath()}"
     table = dict(options_table)
-    options = CookOptions()
-    preset = table.pop("preset", None)
-    if preset is not None:
-        mapping, label = load_preset("cook", str(preset))
-        options = apply_mapping(options, mapping, label)
-    options = apply_mapping(options, table, f"{where} {COOK_PREFIX}*")
-    options = dataclasses.replace(options, strict=strict, meters_per_unit=mpu, up_axis=up_axis)
-    mesh = read_mesh(source, str(prim.GetPath()))
-    result = cook_fabric(mesh, options, hashlib.sha256(source.read_bytes()).hexdigest())
-    return mesh, result
+    if "preset" in table:
+        table["preset"] = str(table["preset"])
+    fixed = {"strict": strict, "meters_per_unit": mpu, "up_axis": up_axis}
+    options = loaders.cook_options(table, f"{where} {COOK_PREFIX}*", fixed)
+    mesh = loaders.read_mesh(source, str(prim.GetPath()))
+    fabric, warnings = loaders.cook(mesh, options, hashlib.sha256(source.read_bytes()).hexdigest())
+    return mesh, fabric, warnings
 
 
 def vertex_particles(mesh_points: np.ndarray, particle_points: np.ndarray, where: str) -> np.ndarray:
@@ -241,7 +234,7 @@ def _attach(prim, collider_names: dict[str, str], mesh_colliders: list[str], whe
 def _cloth(ctx, stage_path: Path, prim, name, mpu, up_axis, strict, collider_names, mesh_colliders) -> ClothInstance:
     where = f"{stage_path}: prim {prim.GetPath()}"
     try:
-        mesh, result = _cook(stage_path, prim, _prefixed(prim, COOK_PREFIX, where), mpu, up_axis, strict)
+        mesh, fabric, warnings = _cook(ctx.loaders, stage_path, prim, _prefixed(prim, COOK_PREFIX, where), mpu, up_axis, strict)
     except ClothtoolError as exc:
         text = str(exc)
         raise SceneError(text if text.startswith(str(stage_path)) else f"{where}: {text}") from None
@@ -252,44 +245,28 @@ def _cloth(ctx, stage_path: Path, prim, name, mpu, up_axis, strict, collider_nam
         material = load_material(material_table, f"{where} {MATERIAL_PREFIX}*")
     except ClothtoolError as exc:
         raise SceneError(f"{where}: {exc}") from None
-    fabric = result.fabric
     # the bake writes points in the cooked mesh's vertex order (Fabric.in_vertex_order): map to that
     mapping = vertex_particles(mesh.vertex_pos, fabric.in_vertex_order(fabric.rest_pos).astype(np.float64), where)
     return ClothInstance(
         name=name, source=f"{stage_path.name}:{prim.GetPath()}", fabric=fabric, material=material, placement=Placement(),
         track=None, motion=MotionSettings(), backstop=None, initial_velocity=np.zeros(3),
-        cook_warnings=tuple(result.warnings), attach=_attach(prim, collider_names, mesh_colliders, where),
+        cook_warnings=warnings, attach=_attach(prim, collider_names, mesh_colliders, where),
         prim=str(prim.GetPath()), vertex_particle=mapping,
     )
 
 
-def load_any_scene(
+def read_usd_scene(
     path: str | Path,
+    loaders: SceneLoaders,
     overrides: list[str] = (),
     frames: tuple[int, int] | None = None,
     strict: bool = False,
     cloth: tuple[str, ...] = (),
     collider: tuple[str, ...] = (),
 ) -> Scene:
-    """A TOML scene, or a USD stage (a DCC's shot), by the file's suffix; ``cloth`` and
-    ``collider`` pick prims of a stage only."""
-    if is_usd_stage(Path(path)):
-        return load_usd_scene(path, overrides, frames, strict=strict, cloth=tuple(cloth), collider=tuple(collider))
-    if cloth or collider:
-        raise UsageError(f"{path}: --cloth and --collider pick prims of a USD stage, and this scene is a TOML file")
-    return load_scene(path, list(overrides), frames, strict=strict)
-
-
-def load_usd_scene(
-    path: str | Path,
-    overrides: list[str] = (),
-    frames: tuple[int, int] | None = None,
-    strict: bool = False,
-    cloth: tuple[str, ...] = (),
-    collider: tuple[str, ...] = (),
-) -> Scene:
-    """The Scene of a USD stage (see module docstring); ``cloth`` prim paths and ``collider``
-    patterns replace the marked prims."""
+    """The Scene of a USD stage (see module docstring), its cloths cooked by ``loaders``
+    (``clothtool.loading.load_usd_scene`` passes the cook's); ``cloth`` prim paths and
+    ``collider`` patterns replace the marked prims."""
     from clothtool.scene.colliders import SceneColliders
     from clothtool.scene.usdbodies import (
         body_collider,
@@ -306,9 +283,9 @@ def load_usd_scene(
         raise SceneError(f"{path}: scene file not found; check the path")
     stage = open_stage(path)
     raw = _stage_tables(stage, path, frames)
-    check_override_keys(raw, list(overrides), _schema())
+    check_override_keys(raw, list(overrides), _schema(loaders.cook_keys))
     tables = apply_overrides(raw, list(overrides))
-    ctx = _Context(path)
+    ctx = _Context(path, loaders)
     name, fps, start, end, mpu, up_axis, gravity = _scene_table(ctx, tables["scene"], frames, path.stem)
     preroll = preroll_of(ctx, tables["scene"])
     try:

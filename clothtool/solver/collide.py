@@ -26,8 +26,8 @@ import re
 import numba
 import numpy as np
 
+from clothtool.collision.colliders import ColliderArrays, friction_or
 from clothtool.errors import SceneError
-from clothtool.solver.colliders import ColliderArrays, friction_or
 from clothtool.solver.facepoints import face_points
 from clothtool.solver.framefn import FusedCall, copy_lines, stacked
 from clothtool.solver.iteration import FramePlan, Iteration

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 if TYPE_CHECKING:  # pragma: no cover
-    from clothtool.solver.colliders import ColliderArrays
+    from clothtool.collision.colliders import ColliderArrays
 
 
 AIR_DENSITY = 1.2  # kg/m^3 at sea level and room temperature

@@ -27,7 +27,7 @@ import dataclasses
 
 import numpy as np
 
-from clothtool.solver.colliders import ColliderArrays
+from clothtool.collision.colliders import ColliderArrays
 
 COARSE = 6
 ROUNDS = 3

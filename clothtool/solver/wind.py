@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.cook.triplets import TripletScheduler
+from clothtool.mesh.coloring import TripletScheduler
 from clothtool.solver.air import corner_shares
 from clothtool.solver.framefn import FusedCall, stacked
 from clothtool.solver.iteration import FramePlan, Iteration

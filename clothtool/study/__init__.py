@@ -26,7 +26,8 @@ import numpy as np
 from clothtool.bake import BakeOptions, bake
 from clothtool.errors import ClothtoolError, UnstableError
 from clothtool.io.memory import MemoryCacheWriter
-from clothtool.scene.scene import Scene, load_scene
+from clothtool.loading import load_scene
+from clothtool.scene.scene import Scene
 from clothtool.study import roundoff
 from clothtool.study.machine import machine_info
 from clothtool.study.sweep import Setting, Sweep, settings

@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.errors import SceneError, UnstableError
 from clothtool.integrators.explicit import ExplicitClothSolver, stability_limit
@@ -18,7 +19,6 @@ from clothtool.integrators.explicit.stability import stability_report
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
 from clothtool.settings import Material, Placement, SolverConfig
-from clothtool.solver.colliders import ColliderArrays
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import Pose
 from clothtool.solver.measure import ClothMeter

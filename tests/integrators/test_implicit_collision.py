@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.integrators.implicit.kernels.implicit_collision import NO_CONTACT, collide_particles, project_particles
 from clothtool.integrators.implicit.kernels.implicit_strain import limit_strain
 from clothtool.integrators.implicit.pattern import color_elements, triangle_edges
 from clothtool.settings import load_material
-from clothtool.solver.colliders import ColliderArrays
 from tests.integrators.test_implicit_setup import grid_fabric, make_solver, replace, run
 from tests.kernels.test_collide import moving_frame, scene, still_frame
 from tests.reference import implicit_collision as ref

@@ -11,8 +11,8 @@ from clothtool.cook import locality
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.cache import read_cache
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 
 SCENE = """
 version = 1

@@ -8,8 +8,11 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from clothtool.solver.kernels.collide_mesh import (
+    box_cell,
+    box_cell_count,
     box_cells,
     closest_on_triangle,
+    first_shared_cell,
     grid_cell,
     grid_cell_ranges,
     grid_fill,
@@ -147,6 +150,38 @@ def test_grid_build_matches_reference():
         lo = centre + rng.normal(0.0, 1.0, 3) * grid[4:7] / grid[3]
         hi = lo + rng.uniform(0.0, 0.5, 3) * grid[4:7] / grid[3]
         assert box_cells(*lo, *hi, grid) == ref.box_cells(lo, hi, grid)
+
+
+def test_box_walk_meets_each_triangle_once():
+    """box_cell and first_shared_cell against the reference, and the walk they make: every
+    triangle with a cell in the box is met exactly once, in the box's first cell it shares."""
+    rng = np.random.default_rng(5)
+    points, triangles = random_mesh(rng)
+    margins = f32(np.full(triangles.shape[0], 0.01))
+    _, grid, _, ranges, _, cell_start, cell_items = build_grid(points, points, triangles, margins, 300)
+    centre = grid[:3] + 0.5 * grid[4:7] / grid[3]
+    for _ in range(100):
+        lo = centre + rng.normal(0.0, 0.6, 3) * grid[4:7] / grid[3]
+        hi = lo + rng.uniform(0.0, 0.6, 3) * grid[4:7] / grid[3]
+        outside, x0, y0, z0, x1, y1, z1 = box_cells(*lo, *hi, grid)
+        if outside:
+            continue
+        count = box_cell_count(x0, y0, z0, x1, y1, z1)
+        assert count == ref.box_cell_count(x0, y0, z0, x1, y1, z1)
+        met = []
+        for k in range(count):
+            x, y, z, cell = box_cell(k, x0, y0, z0, x1, y1, z1, grid)
+            assert (x, y, z, cell) == ref.box_cell(k, x0, y0, z0, x1, y1, z1, grid)
+            for t in cell_items[cell_start[cell]:cell_start[cell + 1]]:
+                first = first_shared_cell(t, x, y, z, x0, y0, z0, ranges)
+                assert first == ref.first_shared_cell(t, x, y, z, x0, y0, z0, ranges)
+                if first:
+                    met.append(int(t))
+        overlapping = [
+            t for t in range(triangles.shape[0])
+            if (ranges[t, :3] <= [x1, y1, z1]).all() and (ranges[t, 3:] >= [x0, y0, z0]).all()
+        ]
+        assert sorted(met) == overlapping  # each once, none missed
 
 
 def test_to_world_matches_reference():

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from clothtool.cook.cooker import CookOptions, cook_fabric
-from clothtool.cook.triplets import TripletScheduler
+from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.shapes import grid
 from clothtool.solver.kernels.fabric import solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
 from tests.kernels._data import F32, U, assert_close, f32

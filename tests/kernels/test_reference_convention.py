@@ -1,8 +1,8 @@
 """Convention: every numba kernel has a plain-numpy reference and a comparison test.
 
 A kernel is a numba dispatcher defined in a clothtool module; its module is every module of
-clothtool.solver.kernels and any other module that imports clothtool._jit (today the cook's
-triplets and phases). For a kernel module ``x`` there must be
+clothtool.solver.kernels and any other module that imports clothtool._jit (today the mesh
+colouring and the cook's phases). For a kernel module ``x`` there must be
 
 * ``tests/reference/x.py`` with a plain function of the same name for each kernel (no numba),
   private helpers included;
@@ -69,7 +69,7 @@ MODULES = kernel_modules()
 def test_the_scan_finds_the_known_kernel_modules():
     expected = {"integrate", "wind", "constraints", "fabric", "stats"}
     assert {m.rsplit(".", 1)[1] for m in MODULES if m.startswith(kernel_package.__name__)} >= expected
-    assert {"clothtool.cook.triplets", "clothtool.cook.phases"} <= set(MODULES)
+    assert {"clothtool.mesh.coloring", "clothtool.cook.phases"} <= set(MODULES)
 
 
 def test_kernel_module_names_are_unique():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from clothtool.cook.triplets import TripletScheduler
+from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.shapes import grid
 from clothtool.solver.kernels.wind import apply_wind
 from tests.kernels._data import F32, U, assert_close, f32

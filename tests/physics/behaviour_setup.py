@@ -220,7 +220,7 @@ def rotated_about_x(fabric, angle: float):
 # ---------------------------------------------------------------------------------- colliders
 def half_space(normal, friction: float):
     """A convex of one plane through the origin, solid where normal . x < 0."""
-    from clothtool.solver.colliders import ColliderArrays
+    from clothtool.collision.colliders import ColliderArrays
 
     one = np.ones(1, np.float32)
     return ColliderArrays(

@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.settings import SolverConfig
-from clothtool.solver.colliders import ColliderArrays
 from clothtool.solver.facepoints import face_levels, face_points, subdivision_weights
 from clothtool.solver.penetration import barycentric_grid, face_penetration, round_cone_distance
 from tests.physics.test_collision import THICKNESS, capsule, capsule_distance, cloth_fabric, run, solver_for, spheres

@@ -39,10 +39,10 @@ import dataclasses
 import numpy as np
 import pytest
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.shapes import grid
 from clothtool.settings import Material, SolverConfig, load_material
-from clothtool.solver.colliders import ColliderArrays
 from tests.physics.conftest import HardCaseRun, make_collider_solver, make_solver
 
 THICKNESS = 0.002  # m: the cloth's thickness, its collision margin

@@ -26,9 +26,9 @@ from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.errors import MeshError
 from clothtool.io.fabric_file import write_fabric
 from clothtool.io.memory import MemoryCacheWriter
+from clothtool.loading import load_scene
 from clothtool.mesh.clothmesh import ClothMesh
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 from clothtool.settings import SolverConfig, load_material
 from tests.physics.conftest import HardCaseRun, make_solver
 

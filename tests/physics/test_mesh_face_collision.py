@@ -12,8 +12,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.settings import SolverConfig
-from clothtool.solver.colliders import ColliderArrays
 from clothtool.solver.penetration import face_penetration
 from tests.physics.test_collision import THICKNESS, box_mesh, cloth_fabric, f32, run, solver_for
 

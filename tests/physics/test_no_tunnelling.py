@@ -32,13 +32,13 @@ from typing import Callable
 import numpy as np
 import pytest
 
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.integrators.explicit.stability import stability_limit
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
 from clothtool.settings import Material, PhaseSettings, Placement, SolverConfig
 from clothtool.sim.integrators import REGISTRY
-from clothtool.solver.colliders import ColliderArrays
 from clothtool.solver.environment import Environment
 from clothtool.solver.model import build_model
 

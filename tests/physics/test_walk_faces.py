@@ -12,7 +12,7 @@ import pytest
 
 from clothtool.bake import BakeOptions, bake
 from clothtool.io.cache import read_cache
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 from clothtool.solver.penetration import face_penetration
 
 WALK = Path(__file__).resolve().parents[2] / "examples" / "skirt" / "walk.toml"

@@ -1,7 +1,7 @@
 """Plain-numpy references for the numba kernels (stumpy's habit).
 
 One module per kernel module, named after it (``clothtool/solver/kernels/wind.py`` ->
-``tests/reference/wind.py``, ``clothtool/cook/triplets.py`` -> ``tests/reference/triplets.py``),
+``tests/reference/wind.py``, ``clothtool/mesh/coloring.py`` -> ``tests/reference/coloring.py``),
 with one function per kernel under the kernel's name. A reference is written from the seed's
 pseudo-code (``/work/shared/seeds/nvcloth-solver-internals.txt``) and the kernel's docstring,
 never from the kernel's source, so that ``tests/kernels`` can catch kernel bugs.

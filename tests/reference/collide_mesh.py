@@ -123,6 +123,24 @@ def box_cells(lo, hi, grid):
     return (outside, *np.maximum(first, 0).tolist(), *np.minimum(last, counts - 1).tolist())
 
 
+def box_cell_count(x0, y0, z0, x1, y1, z1):
+    return len(range(x0, x1 + 1)) * len(range(y0, y1 + 1)) * len(range(z0, z1 + 1))
+
+
+def box_cell(k, x0, y0, z0, x1, y1, z1, grid):
+    """The k-th of the box's cells listed z, then y, then x (x fastest), with its index."""
+    nx, ny = int(grid[4]), int(grid[5])
+    cells = [(x, y, z) for z in range(z0, z1 + 1) for y in range(y0, y1 + 1) for x in range(x0, x1 + 1)]
+    x, y, z = cells[k]
+    return x, y, z, (z * ny + y) * nx + x
+
+
+def first_shared_cell(t, x, y, z, x0, y0, z0, cell_ranges):
+    """The lowest corner of the overlap of the box (from x0, y0, z0) and triangle t's cells."""
+    first = np.maximum([x0, y0, z0], np.asarray(cell_ranges[t, :3], np.int64))
+    return bool((first == [x, y, z]).all())
+
+
 def grid_cell_ranges(bounds, grid):
     """(entries, cell_ranges (t,6))."""
     ranges = np.array(

@@ -12,8 +12,8 @@ from clothtool.bake import BakeOptions, bake
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
 from clothtool.io.memory import MemoryCacheWriter
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 from tests.conftest import EXAMPLES
 
 # A sheet dropped onto a sphere, a mesh bump, a box and the floor; a capsule passes above it on

@@ -9,7 +9,7 @@ import pytest
 
 from clothtool.bake import bake
 from clothtool.io.memory import MemoryCacheWriter
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 
 from tests.conftest import EXAMPLES
 

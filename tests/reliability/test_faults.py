@@ -30,8 +30,8 @@ from clothtool.io import atomic
 from clothtool.io.cache import partial_path, read_cache
 from clothtool.io.fabric_file import write_fabric
 from clothtool.io.memory import MemoryCacheWriter
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 from tests.conftest import REPO
 
 CLOTH = "sheet"

@@ -25,9 +25,9 @@ from clothtool.io.cache import CacheHeader, CacheOptions, ClothTopology, FrameDa
 from clothtool.io.fabric_file import read_fabric, write_fabric
 from clothtool.io.h5cache import read_h5_cache
 from clothtool.io.meshin import read_mesh
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
 from clothtool.presets import load_preset
-from clothtool.scene.scene import load_scene
 
 SENTINEL = b"SENTINEL-bytes-of-a-foreign-file"
 CLOTH = "skirt"

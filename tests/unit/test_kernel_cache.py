@@ -190,7 +190,7 @@ import sys
 from clothtool.warmup import warm_up_kernels
 from clothtool.bake import make_solvers
 from clothtool.profile import StageProfiler
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 from clothtool.solver.measure import ClothMeter
 
 # the position-based float64 (the default precision) serial variants: the README walk bake's configuration

@@ -9,7 +9,7 @@ import pytest
 
 from clothtool.errors import SceneError
 from clothtool.scene.overrides import apply_overrides
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 from clothtool.scene.tracks import Track, decompose_matrix, euler_xyz_to_quat, quat_to_matrix, slerp
 
 from tests.conftest import EXAMPLES

@@ -7,8 +7,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from clothtool.cook.cooker import CookOptions, cook_fabric
-from clothtool.cook.triplets import TripletScheduler
 from clothtool.fabric import conflicting_set
+from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.shapes import grid
 
 

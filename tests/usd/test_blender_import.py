@@ -23,7 +23,7 @@ from pxr import Usd, UsdGeom  # noqa: E402  (after the skip: bpy decides whether
 from clothtool.bake import bake  # noqa: E402
 from clothtool.io.cache import CacheOptions  # noqa: E402
 from clothtool.io.usdshot import ShotLayerWriter  # noqa: E402
-from clothtool.scene.usdstage import load_usd_scene  # noqa: E402
+from clothtool.loading import load_usd_scene  # noqa: E402
 from tests.usd.shots import add_cloth, add_skinned_body, new_stage  # noqa: E402
 
 FRAMES = (1, 6)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel
 
-from clothtool.scene.usdstage import load_usd_scene
+from clothtool.loading import load_usd_scene
 from tests.usd.shots import add_cloth, add_point_cached_body, add_skinned_body, collide, new_stage
 
 FRAMES = (1, 5)

@@ -19,7 +19,7 @@ from pxr import Usd, UsdGeom  # noqa: E402
 from clothtool.bake import BakeOptions, bake  # noqa: E402
 from clothtool.io.cache import CacheOptions  # noqa: E402
 from clothtool.io.usdshot import ShotLayerWriter  # noqa: E402
-from clothtool.scene.usdstage import load_usd_scene  # noqa: E402
+from clothtool.loading import load_usd_scene  # noqa: E402
 from clothtool.solver.penetration import face_penetration  # noqa: E402
 
 SHOT = Path(__file__).resolve().parents[2] / "examples" / "shot" / "shot.usda"

@@ -11,8 +11,8 @@ from pxr import Gf, Usd, UsdGeom, UsdSkel
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.errors import ClothtoolError, SceneError
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 from tests.usd.shots import add_point_cached_body, add_skinned_body, define_mesh, new_stage, slab
 
 SCENE = """

@@ -10,7 +10,7 @@ from clothtool.bake import bake
 from clothtool.io.cache import CacheOptions
 from clothtool.io.memory import MemoryCacheWriter
 from clothtool.io.usdshot import ShotLayerWriter
-from clothtool.scene.usdstage import load_usd_scene
+from clothtool.loading import load_usd_scene
 from clothtool.solver.attach import bind_attachment, closest_points_on_triangles
 from clothtool.solver.kernels.attach import attach_particles
 from tests.reference.attach import attach_particles as attach_particles_reference

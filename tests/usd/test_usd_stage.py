@@ -7,7 +7,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt
 
 from clothtool.errors import SceneError
-from clothtool.scene.usdstage import load_usd_scene
+from clothtool.loading import load_usd_scene
 from tests.usd.shots import add_cloth, add_point_cached_body, add_skinned_body, collide, define_mesh, new_stage, slab
 
 SUB_FRAMES = (1.0, 1.25, 1.5, 2.75, 3.0, 4.5)

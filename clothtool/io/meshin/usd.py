@@ -16,7 +16,7 @@ _USD_SCALAR_TYPES = ("float", "double", "half", "int", "uint", "int64", "uint64"
 def read(source: str, prim: str | None) -> ClothMesh:
     from pxr import Sdf, Usd, UsdGeom
 
-    from clothtool.io.usd_env import quiet_stderr
+    from clothtool.usd_env import quiet_stderr
 
     with quiet_stderr():  # composition problems are reported below, in one line each
         stage = Usd.Stage.Open(source)

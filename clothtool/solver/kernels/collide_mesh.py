@@ -251,6 +251,35 @@ def box_cells(lox, loy, loz, hix, hiy, hiz, grid):
     return outside, max(x0, 0), max(y0, 0), max(z0, 0), min(x1, nx - 1), min(y1, ny - 1), min(z1, nz - 1)
 
 
+# A box query (the kernels that look up triangles near a point's move or a cloth triangle) walks
+# the box_cells of its box with the three helpers below: cells in grid_fill's order, each
+# triangle tested in one cell only.
+@kernel(inline="always")
+def box_cell_count(x0, y0, z0, x1, y1, z1):
+    """How many cells the box of cells x0..x1, y0..y1, z0..z1 (box_cells, not outside) holds."""
+    return (x1 - x0 + 1) * (y1 - y0 + 1) * (z1 - z0 + 1)
+
+
+@kernel(inline="always")
+def box_cell(k, x0, y0, z0, x1, y1, z1, grid):
+    """Cell k (0 <= k < box_cell_count) of the box of cells, x fastest, then y, then z:
+    (x, y, z, the cell's index c = (z * ny + y) * nx + x into cell_start)."""
+    wx = x1 - x0 + 1
+    wy = y1 - y0 + 1
+    x = x0 + k % wx
+    y = y0 + (k // wx) % wy
+    z = z0 + k // (wx * wy)
+    return x, y, z, (z * int(grid[5]) + y) * int(grid[4]) + x
+
+
+@kernel(inline="always")
+def first_shared_cell(t, x, y, z, x0, y0, z0, cell_ranges):
+    """Whether cell (x, y, z) of a box whose first cell is (x0, y0, z0) is the first cell (the
+    lowest on each axis) that the box shares with triangle t's cells: a query that tests t
+    there only tests each triangle once, however many of the box's cells hold it."""
+    return x == max(x0, cell_ranges[t, 0]) and y == max(y0, cell_ranges[t, 1]) and z == max(z0, cell_ranges[t, 2])
+
+
 @kernel
 def grid_cell_ranges(bounds, grid, cell_ranges):
     """cell_ranges (t,6): each triangle's first and last cell per axis; returns the number
@@ -327,32 +356,25 @@ def mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, 
     )
     if outside:
         return hit, rx, ry, rz, sx, sy, sz, mu
-    nx = int(grid[4])
-    ny = int(grid[5])
     T = triangle_data
     single = x0 == x1 and y0 == y1 and z0 == z1  # one cell: no triangle can come twice
-    for z in range(z0, z1 + 1):
-        for y in range(y0, y1 + 1):
-            for x in range(x0, x1 + 1):
-                cell = (z * ny + y) * nx + x
-                for e in range(cell_start[cell], cell_start[cell + 1]):
-                    t = cell_items[e]
-                    # visit each triangle once: in the first cell both boxes share
-                    if not single and (
-                        x != max(x0, cell_ranges[t, 0]) or y != max(y0, cell_ranges[t, 1]) or z != max(z0, cell_ranges[t, 2])
-                    ):
-                        continue
-                    ok, dx, dy, dz, u, v = triangle_contact(px, py, pz, qx, qy, qz, triangle_data, t)
-                    if not ok:
-                        continue
-                    size = dx * dx + dy * dy + dz * dz
-                    if size > best:
-                        best = size
-                        hit = True
-                        rx, ry, rz = dx, dy, dz
-                        w = one - u - v
-                        sx = w * (T[t, 9] - T[t, 0]) + u * (T[t, 12] - T[t, 3]) + v * (T[t, 15] - T[t, 6])
-                        sy = w * (T[t, 10] - T[t, 1]) + u * (T[t, 13] - T[t, 4]) + v * (T[t, 16] - T[t, 7])
-                        sz = w * (T[t, 11] - T[t, 2]) + u * (T[t, 14] - T[t, 5]) + v * (T[t, 17] - T[t, 8])
-                        mu = T[t, 25]
+    for k in range(box_cell_count(x0, y0, z0, x1, y1, z1)):
+        x, y, z, cell = box_cell(k, x0, y0, z0, x1, y1, z1, grid)
+        for e in range(cell_start[cell], cell_start[cell + 1]):
+            t = cell_items[e]
+            if not (single or first_shared_cell(t, x, y, z, x0, y0, z0, cell_ranges)):
+                continue
+            ok, dx, dy, dz, u, v = triangle_contact(px, py, pz, qx, qy, qz, triangle_data, t)
+            if not ok:
+                continue
+            size = dx * dx + dy * dy + dz * dz
+            if size > best:
+                best = size
+                hit = True
+                rx, ry, rz = dx, dy, dz
+                w = one - u - v
+                sx = w * (T[t, 9] - T[t, 0]) + u * (T[t, 12] - T[t, 3]) + v * (T[t, 15] - T[t, 6])
+                sy = w * (T[t, 10] - T[t, 1]) + u * (T[t, 13] - T[t, 4]) + v * (T[t, 16] - T[t, 7])
+                sz = w * (T[t, 11] - T[t, 2]) + u * (T[t, 14] - T[t, 5]) + v * (T[t, 17] - T[t, 8])
+                mu = T[t, 25]
     return hit, rx, ry, rz, sx, sy, sz, mu

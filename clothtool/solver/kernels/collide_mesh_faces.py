@@ -36,7 +36,14 @@ import numpy as np
 
 from clothtool._jit import kernel
 from clothtool.solver.kernels.collide import friction_correction
-from clothtool.solver.kernels.collide_mesh import box_cells, to_world, triangle_contact_within
+from clothtool.solver.kernels.collide_mesh import (
+    box_cell,
+    box_cell_count,
+    box_cells,
+    first_shared_cell,
+    to_world,
+    triangle_contact_within,
+)
 from clothtool.solver.kernels.collide_pose import pack_triangle
 
 
@@ -120,8 +127,6 @@ def collide_mesh_faces(
     zero = np.float32(0.0)
     one = np.float32(1.0)
     T = triangle_data
-    nx = int(grid[4])
-    ny = int(grid[5])
     corrected = 0
     for f in range(cloth_triangles.shape[0]):
         a = cloth_triangles[f, 0]
@@ -155,31 +160,29 @@ def collide_mesh_faces(
         hit = False
         dx = dy = dz = u = v = zero
         sx = sy = sz = mu = zero
-        for z in range(z0, z1 + 1):
-            for y in range(y0, y1 + 1):
-                for x in range(x0, x1 + 1):
-                    cell = (z * ny + y) * nx + x
-                    for e in range(cell_start[cell], cell_start[cell + 1]):
-                        t = cell_items[e]
-                        if x != max(x0, cell_ranges[t, 0]) or y != max(y0, cell_ranges[t, 1]) or z != max(z0, cell_ranges[t, 2]):
-                            continue  # visit each collider triangle once
-                        if _misses(record, T, t):
-                            continue
-                        points = 3 + owners[t, 1] + owners[t, 2] + owners[t, 3]
-                        for k in range(points):
-                            ok, qx, qy, qz, px, py, pz = _collider_point(T, t, k, owners)
-                            if not ok:
-                                continue
-                            ok, ex, ey, ez, eu, ev = triangle_contact_within(px, py, pz, qx, qy, qz, record, 0, T[t, 24])
-                            if not ok:
-                                continue
-                            size = ex * ex + ey * ey + ez * ez
-                            if size > best:
-                                best = size
-                                hit = True
-                                dx, dy, dz, u, v = ex, ey, ez, eu, ev
-                                sx, sy, sz = px - qx, py - qy, pz - qz
-                                mu = T[t, 25]
+        for n in range(box_cell_count(x0, y0, z0, x1, y1, z1)):
+            x, y, z, cell = box_cell(n, x0, y0, z0, x1, y1, z1, grid)
+            for e in range(cell_start[cell], cell_start[cell + 1]):
+                t = cell_items[e]
+                if not first_shared_cell(t, x, y, z, x0, y0, z0, cell_ranges):
+                    continue  # visit each collider triangle once
+                if _misses(record, T, t):
+                    continue
+                points = 3 + owners[t, 1] + owners[t, 2] + owners[t, 3]
+                for k in range(points):
+                    ok, qx, qy, qz, px, py, pz = _collider_point(T, t, k, owners)
+                    if not ok:
+                        continue
+                    ok, ex, ey, ez, eu, ev = triangle_contact_within(px, py, pz, qx, qy, qz, record, 0, T[t, 24])
+                    if not ok:
+                        continue
+                    size = ex * ex + ey * ey + ez * ez
+                    if size > best:
+                        best = size
+                        hit = True
+                        dx, dy, dz, u, v = ex, ey, ez, eu, ev
+                        sx, sy, sz = px - qx, py - qy, pz - qz
+                        mu = T[t, 25]
         if not hit:
             continue
         # the contact point on the cloth triangle and the immovable point's push-out, reversed

@@ -19,7 +19,14 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
-from clothtool.solver.kernels.collide_mesh import closest_on_triangle, plane_coordinates
+from clothtool.solver.kernels.collide_mesh import (
+    box_cell,
+    box_cell_count,
+    box_cells,
+    closest_on_triangle,
+    first_shared_cell,
+    plane_coordinates,
+)
 
 
 @kernel
@@ -151,9 +158,6 @@ def face_depths(points, triangles, corner_depth, mesh_points, mesh_triangles, ma
     docstring; negative: minus its clearance), -inf when no mesh triangle's box grown by its
     margin meets the triangle's box and no corner is inside; corner_depth (n,) from
     inside_depths; the grid (collide_mesh) over the mesh triangles' boxes grown by ``margins``."""
-    nx = int(grid[4])
-    ny = int(grid[5])
-    inv = grid[3]
     A = np.empty((3, 3))
     B = np.empty((3, 3))
     for f in range(triangles.shape[0]):
@@ -166,25 +170,19 @@ def face_depths(points, triangles, corner_depth, mesh_points, mesh_triangles, ma
         for d in range(3):
             low[d] = A[:, d].min()
             high[d] = A[:, d].max()
-        lo = np.empty(3, np.int64)
-        hi = np.empty(3, np.int64)
-        for d in range(3):
-            lo[d] = max(int(np.floor((low[d] - grid[d]) * inv)), 0)
-            hi[d] = min(int(np.floor((high[d] - grid[d]) * inv)), int(grid[4 + d]) - 1)
-        for z in range(lo[2], hi[2] + 1):
-            for y in range(lo[1], hi[1] + 1):
-                for x in range(lo[0], hi[0] + 1):
-                    cell = (z * ny + y) * nx + x
-                    for e in range(cell_start[cell], cell_start[cell + 1]):
-                        t = cell_items[e]
-                        if x != max(lo[0], cell_ranges[t, 0]) or y != max(lo[1], cell_ranges[t, 1]) or z != max(lo[2], cell_ranges[t, 2]):
-                            continue  # visit each mesh triangle once
-                        for corner in range(3):
-                            B[corner] = mesh_points[mesh_triangles[t, corner]]
-                        apart = False
-                        for d in range(3):
-                            apart = apart or B[:, d].min() - margins[t] > high[d] or B[:, d].max() + margins[t] < low[d]
-                        if apart:
-                            continue  # the boxes are apart: farther than the margin
-                        depth = max(depth, margins[t] - triangle_distance(A, B))
+        outside, x0, y0, z0, x1, y1, z1 = box_cells(low[0], low[1], low[2], high[0], high[1], high[2], grid)
+        for k in range(0 if outside else box_cell_count(x0, y0, z0, x1, y1, z1)):
+            x, y, z, cell = box_cell(k, x0, y0, z0, x1, y1, z1, grid)
+            for e in range(cell_start[cell], cell_start[cell + 1]):
+                t = cell_items[e]
+                if not first_shared_cell(t, x, y, z, x0, y0, z0, cell_ranges):
+                    continue  # visit each mesh triangle once
+                for corner in range(3):
+                    B[corner] = mesh_points[mesh_triangles[t, corner]]
+                apart = False
+                for d in range(3):
+                    apart = apart or B[:, d].min() - margins[t] > high[d] or B[:, d].max() + margins[t] < low[d]
+                if apart:
+                    continue  # the boxes are apart: farther than the margin
+                depth = max(depth, margins[t] - triangle_distance(A, B))
         out[f] = depth

@@ -1,4 +1,4 @@
-"""clothtool.cook.triplets._greedy_colors against tests/reference/triplets.py."""
+"""clothtool.mesh.coloring._greedy_colors against tests/reference/coloring.py."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from clothtool.cook.triplets import TripletScheduler, _greedy_colors
+from clothtool.mesh.coloring import TripletScheduler, _greedy_colors
 from clothtool.mesh.shapes import grid
-from tests.reference import triplets as ref
+from tests.reference import coloring as ref
 
 
 def words_for(elements, movable):

@@ -1,4 +1,4 @@
-"""Reference for clothtool.cook.triplets (the scheduler's greedy colouring kernel)."""
+"""Reference for clothtool.mesh.coloring (the scheduler's greedy colouring kernel)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""How clothtool runs pxr: import this module before ``pxr`` is first used.
+"""How clothtool runs pxr: import this module before ``pxr`` is first used. A neutral module
+(standard library only): the scene's stage reader and io's USD readers and writer share it.
 
 * Crate files are memory-mapped by default. Under an address-space limit (``ulimit -v``,
   as some farms set) mapping a multi-gigabyte cache fails and pxr then crashes; reading

@@ -1,4 +1,6 @@
-"""Collider geometry as flat float32 arrays: what the collision stages see.
+"""Colliders as values: the flat float32 arrays the collision stages see (ColliderArrays)
+and the shape description a cache stores (ColliderInfo). The scene builds both; the solvers
+and the cache writers read them (a neutral module: it imports no scene, solver or io code).
 
 A scene's colliders at one instant are flattened per primitive kind (NvCloth's layout):
 spheres; capsules as pairs of spheres joined by a tapered cone; convexes as sets of planes
@@ -87,3 +89,25 @@ def friction_or(friction: np.ndarray, cloth_friction: float) -> np.ndarray:
     material friction: the one rule every integrator applies."""
     friction = np.asarray(friction, np.float64)
     return np.where(np.isnan(friction), cloth_friction, friction)
+
+
+@dataclasses.dataclass(frozen=True)
+class ColliderInfo:
+    """A collider written to the cache as an animated transform.
+
+    Attributes:
+        name: valid prim / group name.
+        kind: "sphere", "capsule", "plane", "convex" or "mesh".
+        params: shape parameters in scene units: sphere {"radius"}; capsule {"radius0",
+            "radius1", "length"} (axis +X from -length/2 to +length/2 in the local frame);
+            plane {} (normal +Y through the local origin); convex {"planes": (m,4) array};
+            mesh {} with the topology below.
+        face_vertex_counts, face_vertex_indices, rest_points: mesh colliders only.
+    """
+
+    name: str
+    kind: str
+    params: dict = dataclasses.field(default_factory=dict)
+    face_vertex_counts: np.ndarray | None = None
+    face_vertex_indices: np.ndarray | None = None
+    rest_points: np.ndarray | None = None

@@ -1,4 +1,4 @@
-"""TripletScheduler: split constraints into conflict-free sets.
+"""TripletScheduler: split constraints into conflict-free sets (a colouring of mesh elements).
 
 A *set* is a group of constraints in which no movable particle appears twice, so the
 constraints of a set can be solved in any order, or in parallel, with the same result.
@@ -9,6 +9,10 @@ constraints meeting at one movable particle, which ``lower_bound`` reports.
 
 The same scheduler orders virtual-particle triplets (three particles and a weight index)
 into conflict-free batches of a given width, for solvers that process a batch at a time.
+
+It lives with the mesh topology, below both the cook (constraint phases, virtual particles)
+and the solver (the wind stage's triangle colours), which DESIGN.md keeps from importing
+each other.
 """
 
 from __future__ import annotations
