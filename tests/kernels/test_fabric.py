@@ -10,6 +10,7 @@ import pytest
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.cook.triplets import TripletScheduler
 from clothtool.mesh.shapes import grid
+from clothtool.solver.fabric_layers import phase_layers
 from clothtool.solver.kernels.fabric import solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
 from tests.kernels._data import F32, U, assert_close, f32
 from tests.reference import fabric as ref
@@ -77,11 +78,14 @@ def random_fabric(rng, n, constraints, phase_count):
 
 
 def iterate(kernel, args, cur, iterations=ITERATIONS):
-    """Positions after each of ``iterations`` calls."""
+    """Positions after each of ``iterations`` calls; args = (indices, rest, per-constraint
+    stiffness or alpha~, set_offsets, phase_set_offsets, params), the layers as the fabric
+    stage finds them."""
     cur = cur.copy()
+    layers = phase_layers(args[0], args[3], args[4])
     out = []
     for _ in range(iterations):
-        kernel(*args, cur)
+        kernel(*args, *layers, cur)
         out.append(cur.copy())
     return out
 
@@ -209,8 +213,8 @@ def random_compliance(rng, c, h=1.0 / 240.0):
 
 
 def xpbd_args(args, alpha_tilde):
-    indices, rest, _, set_offsets, _, _ = args
-    return indices, rest, alpha_tilde, set_offsets
+    indices, rest, _, set_offsets, phase_set_offsets, params = args
+    return indices, rest, alpha_tilde, set_offsets, phase_set_offsets, params
 
 
 @pytest.mark.parametrize("kernel", [solve_xpbd, solve_xpbd_parallel], ids=["serial", "parallel"])
@@ -222,7 +226,7 @@ def test_xpbd_random_sets_match_reference(kernel, seed, n, constraints, phases):
     got = iterate(kernel, args, cur)
     want = [cur]
     for _ in range(ITERATIONS):
-        want.append(ref.solve_xpbd(*args, want[-1]))
+        want.append(ref.solve_xpbd(*args[:4], want[-1]))
     for it, (g, w) in enumerate(zip(got, want[1:])):
         assert_close(g, w, ATOL, f"iteration {it}")
     assert np.abs(got[0] - cur).max() > 1000 * ATOL
@@ -234,16 +238,16 @@ def test_xpbd_without_compliance_is_the_rigid_edge_update():
     """alpha~ = 0 is PBD with stiffness 1: the same as solve_phases with k = s = 1, m = 0."""
     rng = np.random.default_rng(23)
     args, cur = random_fabric(rng, 40, 120, 1)
-    indices, rest, _, set_offsets, phase_set_offsets, _ = args
-    xpbd = iterate(solve_xpbd, (indices, rest, f32(np.zeros(rest.shape[0])), set_offsets), cur, 1)[0]
+    indices, rest, _, set_offsets, phase_set_offsets, params = args
+    xpbd = iterate(solve_xpbd, (indices, rest, f32(np.zeros(rest.shape[0])), set_offsets, phase_set_offsets, params), cur, 1)[0]
     rigid = (indices, rest, f32(np.ones(rest.shape[0])), set_offsets, phase_set_offsets, f32([[1, 0, 0, 0]]))
     assert_close(xpbd, iterate(solve_phases, rigid, cur, 1)[0], ATOL, "cur")
 
 
 def test_xpbd_parallel_equals_serial_bit_for_bit(cooked):
-    (indices, rest, _, set_offsets, _, _), cur = cooked
+    (indices, rest, _, set_offsets, phase_set_offsets, params), cur = cooked
     alpha_tilde = random_compliance(np.random.default_rng(24), rest.shape[0])
-    args = (indices, rest, alpha_tilde, set_offsets)
+    args = (indices, rest, alpha_tilde, set_offsets, phase_set_offsets, params)
     serial = iterate(solve_xpbd, args, cur, 5)
     if numba.config.NUMBA_NUM_THREADS < 2:
         runs = [iterate(solve_xpbd_parallel, args, cur, 5)]
@@ -272,8 +276,8 @@ def test_no_phases_and_empty_sets():
     for kernel in (solve_phases, solve_phases_parallel):
         np.testing.assert_array_equal(iterate(kernel, empty_set, cur, 1)[0], cur)
     for kernel in (solve_xpbd, solve_xpbd_parallel):
-        for offsets in (np.zeros(1, np.int32), np.zeros(2, np.int32)):
-            np.testing.assert_array_equal(iterate(kernel, (none[0], none[1], none[2], offsets), cur, 1)[0], cur)
+        for layout in (none, empty_set):
+            np.testing.assert_array_equal(iterate(kernel, layout, cur, 1)[0], cur)
 
 
 @pytest.mark.parametrize("kernel", [solve_phases, solve_phases_parallel], ids=["serial", "parallel"])
