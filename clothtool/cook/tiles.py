@@ -61,7 +61,7 @@ class TileSchedule:
         return int(self.offsets.shape[0]) - 1
 
 
-def tile_ids(pairs: np.ndarray, particle_count: int, tile_particles: int = TILE_PARTICLES) -> np.ndarray:
+def tile_ids(pairs: np.ndarray, particle_count: int, tile_particles: int) -> np.ndarray:
     """i64 (c,): the tile of each constraint row. Blocks b = 0..m-1 of ``tile_particles``
     particles; interior tile b for a row within block b, seam tile m + b for a row whose
     highest particle is in block b and lowest in an earlier block."""
@@ -71,8 +71,10 @@ def tile_ids(pairs: np.ndarray, particle_count: int, tile_particles: int = TILE_
     return np.where(lo == hi, lo, blocks + hi)
 
 
-def schedule_tiles(pairs: np.ndarray, movable: np.ndarray, tile_particles: int = TILE_PARTICLES) -> TileSchedule:
-    """Conflict-free sets of ``pairs`` (c,k), tile by tile (see the module docs)."""
+def schedule_tiles(pairs: np.ndarray, movable: np.ndarray, tile_particles: int | None = None) -> TileSchedule:
+    """Conflict-free sets of ``pairs`` (c,k), tile by tile (see the module docs); tiles of
+    ``tile_particles`` particles (default ``TILE_PARTICLES``)."""
+    tile_particles = tile_particles or TILE_PARTICLES
     pairs = np.ascontiguousarray(pairs, np.int64)
     scheduler = TripletScheduler(pairs, movable)
     lower_bound = scheduler.lower_bound()

@@ -1,5 +1,6 @@
 """solve_phases / solve_xpbd (serial and parallel) against tests/reference/fabric.py, and
-each parallel kernel against its serial one bit for bit, whatever the thread count."""
+each parallel kernel against its serial one bit for bit, whatever the thread count, on
+untiled fabrics and on fabrics cooked in cache tiles (several tiles solved at once)."""
 
 from __future__ import annotations
 
@@ -291,3 +292,52 @@ def test_float64_state_matches_reference(cooked, kernel):
     for it, (g, w) in enumerate(zip(got, want)):
         assert g.dtype == np.float64
         assert_close(g, w, 1e-12, f"iteration {it}")
+
+
+@pytest.fixture(scope="module")
+def cooked_tiles():
+    """A 30x30 grid cooked in cache tiles of 128 particles (clothtool.cook.tiles), so that
+    the kernels solve layers of several tiles at once; crumpled as ``cooked``."""
+    from clothtool.cook import tiles
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(tiles, "TILE_PARTICLES", 128)
+        fabric = cook_fabric(grid(30, 30, spacing=0.05), CookOptions(pin_box=(-1, -0.01, -1, 10, 0.01, 1), tethers="none")).fabric
+    rng = np.random.default_rng(12)
+    n = fabric.rest_pos.shape[0]
+    cur = np.empty((n, 4), np.float32)
+    cur[:, :3] = fabric.rest_pos + f32(rng.normal(0.0, 0.01, (n, 3)))
+    cur[:, 3] = np.where(rng.random(n) < 0.05, 0.0, fabric.particle_inv_mass / fabric.particle_inv_mass.max())
+    stiffness = f32(rng.uniform(0.5, 1.0, fabric.constraint_rest_length.shape[0]))
+    params = np.ascontiguousarray(PHASE_PARAMS[fabric.phase_type - 1])  # each type its own parameters
+    args = (fabric.constraint_indices, fabric.constraint_rest_length, stiffness, fabric.set_offsets, fabric.phase_set_offsets, params)
+    layers, _ = phase_layers(*args[:1], *args[3:5])
+    assert np.diff(layers).max() > 1  # some layer runs several tiles at once
+    return args, cur
+
+
+@pytest.mark.parametrize("mode", ["nvcloth", "xpbd"])
+def test_tiles_match_reference_and_the_serial_bits_at_any_thread_count(cooked_tiles, mode):
+    args, cur = cooked_tiles
+    if mode == "xpbd":
+        args = xpbd_args(args, random_compliance(np.random.default_rng(25), args[0].shape[0]))
+        serial_kernel, parallel_kernel = solve_xpbd, solve_xpbd_parallel
+        want = [cur]
+        for _ in range(ITERATIONS):
+            want.append(ref.solve_xpbd(*args[:4], want[-1]))
+        want = want[1:]
+    else:
+        serial_kernel, parallel_kernel = solve_phases, solve_phases_parallel
+        want = iterate_reference(args, cur)
+    serial = iterate(serial_kernel, args, cur)
+    for it, (g, w) in enumerate(zip(serial, want)):
+        assert_close(g, w, ATOL, f"iteration {it}")
+    thread_counts = (1, 2) if numba.config.NUMBA_NUM_THREADS >= 2 else (1,)
+    before = numba.get_num_threads()
+    try:
+        for threads in thread_counts:
+            numba.set_num_threads(threads)
+            for s, p in zip(serial, iterate(parallel_kernel, args, cur)):
+                assert np.array_equal(s, p), f"{threads} threads"
+    finally:
+        numba.set_num_threads(before)
