@@ -22,6 +22,9 @@ from clothtool.errors import FabricError
 FORMAT_NAME = "clothtool-fabric"
 # Version 2 adds ``particle_vertex`` (particles renumbered for locality); a fabric without it
 # is written as version 1, byte for byte as before, so that older readers still read it.
+# A cloth of more than 16384 particles is cooked in cache tiles (clothtool.cook.tiles): its
+# phase list repeats each phase type once per tile. Older readers read and solve that
+# correctly, so it changed no version (formats/CHANGELOG.md).
 FORMAT_VERSION = 2
 READABLE_VERSIONS = (1, 2)
 
@@ -85,7 +88,8 @@ class Fabric:
         triangles: i32 (t,3) triangulation used by wind, collision and the implicit solver.
         face_vertex_counts, face_vertex_indices: the render topology (quads kept), as in USD.
         face_vertex_uv: f32 (fv,2) per-face-vertex UVs, or (0,2) when the mesh had none.
-        phase_type: i32 (p,) ``PhaseType`` of each phase.
+        phase_type: i32 (p,) ``PhaseType`` of each phase (a type repeats once per cache tile
+            in a big cloth, clothtool.cook.tiles).
         phase_set_offsets: i32 (p+1,) CSR: phase i owns sets [offsets[i], offsets[i+1]).
         set_offsets: i32 (s+1,) CSR: set j owns constraints [offsets[j], offsets[j+1]).
         constraint_indices: i32 (c,2) particle pairs; no movable particle twice in a set.

@@ -113,9 +113,10 @@ class SolverConfig:
     integrator: "pbd" (NvCloth's position-based solver), "implicit" or "explicit".
     parallel_threshold: collision, self-collision and the other integrators' work over at
         least this many particles or constraints runs on all cores.
-    fabric_parallel_threshold: the position-based fabric's sets of at least this many
-        constraints are solved on all cores (the kernel does ~3 ns per constraint, so a set
-        must be large for two threads to beat one). Either way the bits are identical.
+    fabric_parallel_threshold: the position-based fabric is solved on all cores when a set,
+        or a layer of cache tiles solved at once (clothtool.solver.fabric_layers), holds at
+        least this many constraints (the kernel does ~3 ns per constraint, so the work must
+        be large for two threads to beat one). Either way the bits are identical.
     precision: the particle state's dtype, "float64" (default) or "float32". float64 state
         converges as the frequency rises: position Verlet adds g h^2 to a stored position each
         iteration, which at 3840 Hz (6.7e-7 m) is below a float32 ulp of any coordinate

@@ -21,17 +21,20 @@ def fabric_summary(fabric: Fabric) -> dict:
     """Particles, phases (type, constraints, sets vs lower bound), tethers, pins, bounds, validity."""
     n = fabric.particle_count
     movable = fabric.particle_inv_mass > 0
+    # One row per phase type: a big cloth's fabric lists each type once per cache tile
+    # (clothtool.cook.tiles); sets are counted over its tiles.
     phases = []
-    for i in range(fabric.phase_count):
-        span = fabric.phase_constraints(i)
-        pairs = fabric.constraint_indices[span]
-        sets = int(fabric.phase_set_offsets[i + 1] - fabric.phase_set_offsets[i])
+    for phase_type in dict.fromkeys(fabric.phase_type.tolist()):
+        tiles = np.flatnonzero(fabric.phase_type == phase_type)
+        pairs = np.concatenate([fabric.constraint_indices[fabric.phase_constraints(i)] for i in tiles.tolist()])
+        sets = int(sum(fabric.phase_set_offsets[i + 1] - fabric.phase_set_offsets[i] for i in tiles.tolist()))
         phases.append(
             {
-                "type": PhaseType(int(fabric.phase_type[i])).label,
+                "type": PhaseType(int(phase_type)).label,
                 "constraints": int(pairs.shape[0]),
                 "sets": sets,
                 "sets_lower_bound": _constraint_counts_per_particle(pairs, movable, n),
+                "tiles": int(tiles.shape[0]),
             }
         )
     try:
@@ -88,7 +91,8 @@ def format_fabric_summary(summary: dict, name: str) -> str:
     for phase in summary["phases"]:
         lines.append(
             f"    {phase['type']:<11} {phase['constraints']:>9} constraints  {phase['sets']:>3} sets "
-            f"(lower bound {phase['sets_lower_bound']})"
+            f"(lower bound {phase['sets_lower_bound']}"
+            + (f", in {phase['tiles']} cache tiles)" if phase["tiles"] > 1 else ")")
         )
     lines.append(
         f"  tethers    {summary['tethers_per_particle']} per particle, {summary['tethers']} active"

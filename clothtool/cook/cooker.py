@@ -14,6 +14,7 @@ from clothtool.cook import locality, paint
 from clothtool.cook.adjacency import AdjacencyQuerier
 from clothtool.cook.phases import build_phases
 from clothtool.cook.tethers import build_tethers
+from clothtool.cook.tiles import schedule_tiles
 from clothtool.cook.virtual import WEIGHT_PATTERNS, build_virtual_particles
 from clothtool.errors import MeshError
 from clothtool.fabric import Fabric, PhaseType
@@ -119,18 +120,29 @@ def _pinned_mask(mesh: ClothMesh, options: CookOptions, vertex_map: np.ndarray) 
 
 
 def _schedule(phases, pos: np.ndarray, movable: np.ndarray, stiffness: np.ndarray | None):
-    """Schedule each phase into sets; returns the fabric's phase/set/constraint arrays."""
+    """Schedule each phase into sets, tile by tile (clothtool.cook.tiles); returns the
+    fabric's phase/set/constraint arrays and one PhaseStats per phase type.
+
+    The fabric lists its phases tile-major: every phase's part of tile 0 in NvCloth's phase
+    order, then of tile 1, ...; a cloth of one tile gets each phase once, as untiled."""
+    scheduled = [(phase, schedule_tiles(phase.pairs, movable)) for phase in phases]
+    tiles = np.unique(np.concatenate([s.tiles for _, s in scheduled] or [np.zeros(0, np.int64)]))
     phase_types, phase_set_offsets, set_offsets = [], [0], [0]
     indices, stats = [], []
-    for phase in phases:
-        schedule = TripletScheduler(phase.pairs, movable).sets()
-        pairs = phase.pairs[schedule.order]
-        indices.append(pairs)
-        phase_types.append(int(phase.phase_type))
-        set_offsets.extend((schedule.offsets[1:] + set_offsets[-1]).tolist())
-        phase_set_offsets.append(phase_set_offsets[-1] + schedule.set_count)
+    for tile in tiles.tolist():
+        for phase, schedule in scheduled:
+            at = np.searchsorted(schedule.tiles, tile)
+            if at == schedule.tiles.shape[0] or schedule.tiles[at] != tile:
+                continue
+            first_set, last_set = schedule.tile_set_offsets[at], schedule.tile_set_offsets[at + 1]
+            first, last = schedule.offsets[first_set], schedule.offsets[last_set]
+            indices.append(phase.pairs[schedule.order[first:last]])
+            phase_types.append(int(phase.phase_type))
+            set_offsets.extend((schedule.offsets[first_set + 1:last_set + 1] - first + set_offsets[-1]).tolist())
+            phase_set_offsets.append(phase_set_offsets[-1] + int(last_set - first_set))
+    for phase, schedule in scheduled:
         stats.append(
-            PhaseStats(PhaseType(phase.phase_type).label, int(pairs.shape[0]), schedule.set_count, schedule.lower_bound)
+            PhaseStats(PhaseType(phase.phase_type).label, int(phase.pairs.shape[0]), schedule.set_count, schedule.lower_bound)
         )
     pairs = np.concatenate(indices) if indices else np.zeros((0, 2), np.int64)
     rest = np.linalg.norm(pos[pairs[:, 1]] - pos[pairs[:, 0]], axis=1)

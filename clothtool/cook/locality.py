@@ -16,6 +16,12 @@ grid resolution, follows the surface rather than the embedding (two layers of a 
 garment that touch in space stay apart) and gives the greedy scheduler as few sets as the
 scanline order (12 on a grid; Morton 14), so it is the cook's order.
 
+The order alone leaves the big cloth 1.6-1.9x dearer per particle than 10k: every
+conflict-free set still spans the whole cloth, so each of a grid's twelve sets reads the
+whole state from memory. Cloths over 16384 particles are therefore also cooked in cache
+tiles (clothtool.cook.tiles), which brings 1M particles to within 1.1x of 10k (scanline
+grid, RCM: 33.4 against 31.9 ns per particle-iteration, from 53.0 against 32.3 untiled).
+
 The renumbering is a permutation recorded in the fabric (``Fabric.particle_vertex``), so
 caches still present points in the input mesh's vertex order.
 """

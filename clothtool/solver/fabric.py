@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from clothtool.solver.fabric_layers import phase_layers
 from clothtool.solver.framefn import FusedCall
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.fabric import solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
@@ -62,18 +63,27 @@ class FabricStage(Stage):
     def __init__(self, solver):
         super().__init__(solver)
         model = solver.model
+        # Phases that share no particle run on the cores at once (a big cloth's cache tiles)
+        self.layer_group_offsets, self.group_phase_offsets = phase_layers(
+            model.constraint_indices, model.set_offsets, model.phase_set_offsets)
+        # thread start-up costs more than it saves on little work; results are identical. The
+        # work the cores share is a set of a one-group layer or a layer of several groups.
         set_sizes = np.diff(model.set_offsets)
-        # thread start-up costs more than it saves on small sets; results are identical
-        big = bool(set_sizes.size and set_sizes.max() >= solver.config.fabric_parallel_threshold)
+        layer_sizes = np.diff(model.set_offsets[model.phase_set_offsets[self.group_phase_offsets[self.layer_group_offsets]]])
+        several = np.diff(self.layer_group_offsets) > 1
+        largest = max(int(set_sizes.max(initial=0)), int(layer_sizes[several].max(initial=0)))
+        big = largest >= solver.config.fabric_parallel_threshold
         self.xpbd = solver.config.stiffness_mode == "xpbd"
+        # per phase (stiffness, multiplier, compression term, stretch term); unused by xpbd
+        self.params = np.zeros((len(model.phase_labels), 4), np.float32)
         if self.xpbd:
             self.kernel = solve_xpbd_parallel if big else solve_xpbd
             # float32 max stands in for an infinite compliance (a constraint with no stiffness)
             self.compliance = np.minimum(constraint_compliance(model), np.finfo(np.float32).max)
-            self.alpha_tilde = np.zeros(model.constraint_indices.shape[0], np.float32)
+            self.per_constraint = self.alpha_tilde = np.zeros(model.constraint_indices.shape[0], np.float32)
         else:
             self.kernel = solve_phases_parallel if big else solve_phases
-            self.params = np.zeros((len(model.phase_labels), 4), np.float32)
+            self.per_constraint = model.constraint_stiffness
         self.params_h = None  # the iteration length the parameters were converted for
 
     def begin_frame(self, plan: FramePlan) -> None:
@@ -86,48 +96,35 @@ class FabricStage(Stage):
             return
         material = self.solver.model.material
         f = self.solver.config.stiffness_frequency
+        by_label: dict[str, tuple] = {}  # a tiled fabric repeats each phase type once per tile
         for p, label in enumerate(self.solver.model.phase_labels):
-            phase = material.phase(label)
-            self.params[p] = (
-                iteration_stiffness(phase.stiffness, f, plan.h),
-                iteration_multiplier(phase.stiffness_multiplier, f, plan.h),
-                limit_term(phase.compression_limit),
-                limit_term(phase.stretch_limit),
-            )
+            if label not in by_label:
+                phase = material.phase(label)
+                by_label[label] = (
+                    iteration_stiffness(phase.stiffness, f, plan.h),
+                    iteration_multiplier(phase.stiffness_multiplier, f, plan.h),
+                    limit_term(phase.compression_limit),
+                    limit_term(phase.stretch_limit),
+                )
+            self.params[p] = by_label[label]
+
+    def _arguments(self, phases: slice = slice(None)) -> tuple:
+        model = self.solver.model
+        layers = self.layer_group_offsets if phases.stop is None else self.layer_group_offsets[:1]
+        return (model.constraint_indices, model.constraint_rest_length, self.per_constraint, model.set_offsets,
+                model.phase_set_offsets, self.params[phases], layers, self.group_phase_offsets)
 
     def warm_up(self) -> None:
-        model = self.solver.model
-        if self.xpbd:
-            self.kernel(model.constraint_indices, model.constraint_rest_length, self.alpha_tilde, model.set_offsets[:1], self.solver.state.cur)
-        else:
-            self.kernel(
-                model.constraint_indices, model.constraint_rest_length, model.constraint_stiffness,
-                model.set_offsets, model.phase_set_offsets, self.params[:0], self.solver.state.cur,
-            )
+        self.kernel(*self._arguments(slice(0)), self.solver.state.cur)  # no layers: compiles, solves nothing
 
     def run(self, iteration: Iteration) -> None:
-        model = self.solver.model
-        if self.xpbd:
-            self.kernel(model.constraint_indices, model.constraint_rest_length, self.alpha_tilde, model.set_offsets, self.solver.state.cur)
-        else:
-            self.kernel(
-                model.constraint_indices, model.constraint_rest_length, model.constraint_stiffness,
-                model.set_offsets, model.phase_set_offsets, self.params, self.solver.state.cur,
-            )
+        self.kernel(*self._arguments(), self.solver.state.cur)
 
     def fused_call(self) -> FusedCall:
-        model = self.solver.model
-        if self.xpbd:
-            return FusedCall(
-                ("{fabric}({indices}, {rest_length}, {alpha_tilde}, {set_offsets}, cur)",),
-                {"indices": model.constraint_indices, "rest_length": model.constraint_rest_length,
-                 "alpha_tilde": self.alpha_tilde, "set_offsets": model.set_offsets},
-                {"fabric": self.kernel},
-            )
+        names = ("indices", "rest_length", "per_constraint", "set_offsets", "phase_set_offsets", "params",
+                 "layer_group_offsets", "group_phase_offsets")
         return FusedCall(
-            ("{fabric}({indices}, {rest_length}, {stiffness}, {set_offsets}, {phase_set_offsets}, {params}, cur)",),
-            {"indices": model.constraint_indices, "rest_length": model.constraint_rest_length,
-             "stiffness": model.constraint_stiffness, "set_offsets": model.set_offsets,
-             "phase_set_offsets": model.phase_set_offsets, "params": self.params},
+            ("{fabric}(" + ", ".join("{%s}" % name for name in names) + ", cur)",),
+            dict(zip(names, self._arguments())),
             {"fabric": self.kernel},
         )

@@ -1,5 +1,6 @@
 """solve_phases / solve_xpbd (serial and parallel) against tests/reference/fabric.py, and
-each parallel kernel against its serial one bit for bit, whatever the thread count."""
+each parallel kernel against its serial one bit for bit, whatever the thread count, on
+untiled fabrics and on fabrics cooked in cache tiles (several tiles solved at once)."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import pytest
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.shapes import grid
+from clothtool.solver.fabric_layers import phase_layers
 from clothtool.solver.kernels.fabric import solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
 from tests.kernels._data import F32, U, assert_close, f32
 from tests.reference import fabric as ref
@@ -77,11 +79,14 @@ def random_fabric(rng, n, constraints, phase_count):
 
 
 def iterate(kernel, args, cur, iterations=ITERATIONS):
-    """Positions after each of ``iterations`` calls."""
+    """Positions after each of ``iterations`` calls; args = (indices, rest, per-constraint
+    stiffness or alpha~, set_offsets, phase_set_offsets, params), the layers as the fabric
+    stage finds them."""
     cur = cur.copy()
+    layers = phase_layers(args[0], args[3], args[4])
     out = []
     for _ in range(iterations):
-        kernel(*args, cur)
+        kernel(*args, *layers, cur)
         out.append(cur.copy())
     return out
 
@@ -209,8 +214,8 @@ def random_compliance(rng, c, h=1.0 / 240.0):
 
 
 def xpbd_args(args, alpha_tilde):
-    indices, rest, _, set_offsets, _, _ = args
-    return indices, rest, alpha_tilde, set_offsets
+    indices, rest, _, set_offsets, phase_set_offsets, params = args
+    return indices, rest, alpha_tilde, set_offsets, phase_set_offsets, params
 
 
 @pytest.mark.parametrize("kernel", [solve_xpbd, solve_xpbd_parallel], ids=["serial", "parallel"])
@@ -222,7 +227,7 @@ def test_xpbd_random_sets_match_reference(kernel, seed, n, constraints, phases):
     got = iterate(kernel, args, cur)
     want = [cur]
     for _ in range(ITERATIONS):
-        want.append(ref.solve_xpbd(*args, want[-1]))
+        want.append(ref.solve_xpbd(*args[:4], want[-1]))
     for it, (g, w) in enumerate(zip(got, want[1:])):
         assert_close(g, w, ATOL, f"iteration {it}")
     assert np.abs(got[0] - cur).max() > 1000 * ATOL
@@ -234,16 +239,16 @@ def test_xpbd_without_compliance_is_the_rigid_edge_update():
     """alpha~ = 0 is PBD with stiffness 1: the same as solve_phases with k = s = 1, m = 0."""
     rng = np.random.default_rng(23)
     args, cur = random_fabric(rng, 40, 120, 1)
-    indices, rest, _, set_offsets, phase_set_offsets, _ = args
-    xpbd = iterate(solve_xpbd, (indices, rest, f32(np.zeros(rest.shape[0])), set_offsets), cur, 1)[0]
+    indices, rest, _, set_offsets, phase_set_offsets, params = args
+    xpbd = iterate(solve_xpbd, (indices, rest, f32(np.zeros(rest.shape[0])), set_offsets, phase_set_offsets, params), cur, 1)[0]
     rigid = (indices, rest, f32(np.ones(rest.shape[0])), set_offsets, phase_set_offsets, f32([[1, 0, 0, 0]]))
     assert_close(xpbd, iterate(solve_phases, rigid, cur, 1)[0], ATOL, "cur")
 
 
 def test_xpbd_parallel_equals_serial_bit_for_bit(cooked):
-    (indices, rest, _, set_offsets, _, _), cur = cooked
+    (indices, rest, _, set_offsets, phase_set_offsets, params), cur = cooked
     alpha_tilde = random_compliance(np.random.default_rng(24), rest.shape[0])
-    args = (indices, rest, alpha_tilde, set_offsets)
+    args = (indices, rest, alpha_tilde, set_offsets, phase_set_offsets, params)
     serial = iterate(solve_xpbd, args, cur, 5)
     if numba.config.NUMBA_NUM_THREADS < 2:
         runs = [iterate(solve_xpbd_parallel, args, cur, 5)]
@@ -272,8 +277,8 @@ def test_no_phases_and_empty_sets():
     for kernel in (solve_phases, solve_phases_parallel):
         np.testing.assert_array_equal(iterate(kernel, empty_set, cur, 1)[0], cur)
     for kernel in (solve_xpbd, solve_xpbd_parallel):
-        for offsets in (np.zeros(1, np.int32), np.zeros(2, np.int32)):
-            np.testing.assert_array_equal(iterate(kernel, (none[0], none[1], none[2], offsets), cur, 1)[0], cur)
+        for layout in (none, empty_set):
+            np.testing.assert_array_equal(iterate(kernel, layout, cur, 1)[0], cur)
 
 
 @pytest.mark.parametrize("kernel", [solve_phases, solve_phases_parallel], ids=["serial", "parallel"])
@@ -287,3 +292,52 @@ def test_float64_state_matches_reference(cooked, kernel):
     for it, (g, w) in enumerate(zip(got, want)):
         assert g.dtype == np.float64
         assert_close(g, w, 1e-12, f"iteration {it}")
+
+
+@pytest.fixture(scope="module")
+def cooked_tiles():
+    """A 30x30 grid cooked in cache tiles of 128 particles (clothtool.cook.tiles), so that
+    the kernels solve layers of several tiles at once; crumpled as ``cooked``."""
+    from clothtool.cook import tiles
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(tiles, "TILE_PARTICLES", 128)
+        fabric = cook_fabric(grid(30, 30, spacing=0.05), CookOptions(pin_box=(-1, -0.01, -1, 10, 0.01, 1), tethers="none")).fabric
+    rng = np.random.default_rng(12)
+    n = fabric.rest_pos.shape[0]
+    cur = np.empty((n, 4), np.float32)
+    cur[:, :3] = fabric.rest_pos + f32(rng.normal(0.0, 0.01, (n, 3)))
+    cur[:, 3] = np.where(rng.random(n) < 0.05, 0.0, fabric.particle_inv_mass / fabric.particle_inv_mass.max())
+    stiffness = f32(rng.uniform(0.5, 1.0, fabric.constraint_rest_length.shape[0]))
+    params = np.ascontiguousarray(PHASE_PARAMS[fabric.phase_type - 1])  # each type its own parameters
+    args = (fabric.constraint_indices, fabric.constraint_rest_length, stiffness, fabric.set_offsets, fabric.phase_set_offsets, params)
+    layers, _ = phase_layers(*args[:1], *args[3:5])
+    assert np.diff(layers).max() > 1  # some layer runs several tiles at once
+    return args, cur
+
+
+@pytest.mark.parametrize("mode", ["nvcloth", "xpbd"])
+def test_tiles_match_reference_and_the_serial_bits_at_any_thread_count(cooked_tiles, mode):
+    args, cur = cooked_tiles
+    if mode == "xpbd":
+        args = xpbd_args(args, random_compliance(np.random.default_rng(25), args[0].shape[0]))
+        serial_kernel, parallel_kernel = solve_xpbd, solve_xpbd_parallel
+        want = [cur]
+        for _ in range(ITERATIONS):
+            want.append(ref.solve_xpbd(*args[:4], want[-1]))
+        want = want[1:]
+    else:
+        serial_kernel, parallel_kernel = solve_phases, solve_phases_parallel
+        want = iterate_reference(args, cur)
+    serial = iterate(serial_kernel, args, cur)
+    for it, (g, w) in enumerate(zip(serial, want)):
+        assert_close(g, w, ATOL, f"iteration {it}")
+    thread_counts = (1, 2) if numba.config.NUMBA_NUM_THREADS >= 2 else (1,)
+    before = numba.get_num_threads()
+    try:
+        for threads in thread_counts:
+            numba.set_num_threads(threads)
+            for s, p in zip(serial, iterate(parallel_kernel, args, cur)):
+                assert np.array_equal(s, p), f"{threads} threads"
+    finally:
+        numba.set_num_threads(before)

@@ -74,7 +74,8 @@ def solve_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
     return cur
 
 
-# The parallel kernels run each set's constraints on all cores; their specification is the same.
+# The parallel kernels run each set's constraints, or the phases of cache tiles that share no
+# particle, on all cores; their specification is the same (the layers never change the result).
 solve_phases_parallel = solve_phases
 solve_xpbd_parallel = solve_xpbd
 

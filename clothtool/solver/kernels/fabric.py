@@ -37,34 +37,45 @@ DISTANCE_EPSILON = np.float32(1e-30)
 # one-constraint-at-a-time loop), then move every pair of ends. Inside a set no movable
 # particle appears twice, so measuring all before moving any changes nothing (a pinned
 # particle, w = 0, shared by two constraints is written back unchanged). The scratch of a
-# block (3 KB) stays in L1 between its passes. Blocks are the parallel kernels' unit of work
-# and start at multiples of BLOCK from their set's start: which constraints are measured four
-# at a time does not depend on the thread count, so results are bit-identical.
+# block (3 KB) stays in L1 between its passes. Blocks start at multiples of BLOCK from their
+# set's start whoever runs them: which constraints are measured four at a time does not
+# depend on the thread count, so results are bit-identical.
 # All indices are unsigned (np.uintp): numba then emits no negative-index wraparound code,
 # which would keep LLVM from vectorising the loops over contiguous arrays.
 BLOCK = 256
 
+# Work on all cores (clothtool.solver.fabric_layers): the phases are grouped into layers of
+# groups; groups of one layer share no particle. A layer of several groups (a big cloth's
+# cache tiles, clothtool.cook.tiles) runs its groups on the cores, each group's phases and
+# sets in order on one core, with the scratch of a BLOCK of its own; a layer of one group
+# (a small cloth's phase) runs each set's blocks on the cores. Either way every constraint
+# sees what it would see in the serial order of the sets.
+
 
 @kernel(inline="always")
-def _largest_set(set_offsets):
+def _scratch_size(set_offsets, layer_group_offsets):
+    """Scratch rows: the largest set (one layer of one group) or a BLOCK per group."""
     largest = 0
     for s in range(set_offsets.shape[0] - 1):
         largest = max(largest, set_offsets[s + 1] - set_offsets[s])
+    for layer in range(layer_group_offsets.shape[0] - 1):
+        largest = max(largest, (layer_group_offsets[layer + 1] - layer_group_offsets[layer]) * BLOCK)
     return largest
 
 
 @kernel(inline="always")
-def _measure_edges(cur, indices, first, lo, hi, length2, wa, wb):
-    """Constraints first+lo .. first+hi of a set: length2 = eps + |pb - pa|^2 and the two
-    inverse masses, at lo .. hi. ``cur`` is the flat (n*4,) view of the particles."""
+def _measure_edges(cur, indices, first, count, at, length2, wa, wb):
+    """Constraints first .. first+count-1: length2 = eps + |pb - pa|^2 and the two inverse
+    masses, at scratch rows at .. at+count-1. ``cur`` is the flat (n*4,) view of the particles."""
     one = np.uintp(1)
     two = np.uintp(2)
     three = np.uintp(3)
     four = np.uintp(4)
-    quads_end = lo + (hi - lo) // four * four
-    for quad in range(lo // four, quads_end // four):
-        j = four * quad
-        c = first + j
+    quads_end = count // four * four
+    for quad in range(quads_end // four):
+        i = four * quad
+        c = first + i
+        j = at + i
         a0 = load4(cur, 4 * indices[c, 0])
         b0 = load4(cur, 4 * indices[c, 1])
         a1 = load4(cur, 4 * indices[c + one, 0])
@@ -77,8 +88,9 @@ def _measure_edges(cur, indices, first, lo, hi, length2, wa, wb):
         store4(length2, j, vadd(vadd(vadd(fill(hx, DISTANCE_EPSILON), vmul(hx, hx)), vmul(hy, hy)), vmul(hz, hz)))
         store4(wa, j, w_lanes(a0, a1, a2, a3))
         store4(wb, j, w_lanes(b0, b1, b2, b3))
-    for j in range(quads_end, hi):
-        c = first + j
+    for i in range(quads_end, count):
+        c = first + i
+        j = at + i
         pa = load4(cur, 4 * indices[c, 0])
         pb = load4(cur, 4 * indices[c, 1])
         h = vsub(pb, pa)
@@ -91,10 +103,11 @@ def _measure_edges(cur, indices, first, lo, hi, length2, wa, wb):
 
 
 @kernel(inline="always")
-def _move_ends(cur, indices, first, lo, hi, fa, fb):
+def _move_ends(cur, indices, first, count, at, fa, fb):
     """pa += h fa; pb -= h fb for h = pb - pa (the inverse masses are kept)."""
-    for j in range(lo, hi):
-        c = first + j
+    for i in range(count):
+        c = first + i
+        j = at + i
         a = 4 * indices[c, 0]
         b = 4 * indices[c, 1]
         pa = load4(cur, a)
@@ -112,66 +125,98 @@ def _edge_slack(rest, length2):
     return np.float32(1.0) - rest / np.sqrt(length2) if rest > np.float32(0.0) else np.float32(0.0)
 
 
-def _solve_phases(indices, rest, constraint_stiffness, set_offsets, phase_set_offsets, phase_params, cur):
-    """phase_params (p,4): per phase (stiffness, multiplier, compression term, stretch term)."""
-    flat = cur.reshape(-1)
-    scratch = np.empty((3, _largest_set(set_offsets)), cur.dtype)
-    length2 = scratch[0]
-    wa = scratch[1]  # the inverse masses, then the per-end factors ex * w
-    wb = scratch[2]
-    for p in range(phase_params.shape[0]):
-        k = phase_params[p, 0]
-        m = phase_params[p, 1]
-        lo_limit = phase_params[p, 2]
-        hi_limit = phase_params[p, 3]
-        use_multiplier = m != np.float32(0.0)
-        for s in range(phase_set_offsets[p], phase_set_offsets[p + 1]):
-            first = np.uintp(set_offsets[s])
-            size = set_offsets[s + 1] - set_offsets[s]
-            for block in numba.prange((size + BLOCK - 1) // BLOCK):
-                lo = np.uintp(block * BLOCK)
-                hi = np.uintp(min(block * BLOCK + BLOCK, size))
-                _measure_edges(flat, indices, first, lo, hi, length2, wa, wb)
-                for j in range(lo, hi):
-                    c = first + j
-                    er = _edge_slack(rest[c], length2[j])
-                    if use_multiplier:
-                        er -= m * max(lo_limit, min(er, hi_limit))
-                    ex = er * k * constraint_stiffness[c] / (FLT_EPSILON + wa[j] + wb[j])
-                    wa[j] *= ex
-                    wb[j] *= ex
-                _move_ends(flat, indices, first, lo, hi, wa, wb)
+@kernel(inline="always")
+def _edge_block(flat, indices, rest, constraint_stiffness, params, p, first, count, at, length2, wa, wb):
+    """NvCloth's update of constraints first .. first+count-1 (one BLOCK at most) of phase p."""
+    k = params[p, 0]
+    m = params[p, 1]
+    lo_limit = params[p, 2]
+    hi_limit = params[p, 3]
+    _measure_edges(flat, indices, first, count, at, length2, wa, wb)
+    for i in range(count):
+        c = first + i
+        j = at + i
+        er = _edge_slack(rest[c], length2[j])
+        if m != np.float32(0.0):
+            er -= m * max(lo_limit, min(er, hi_limit))
+        ex = er * k * constraint_stiffness[c] / (FLT_EPSILON + wa[j] + wb[j])
+        wa[j] *= ex
+        wb[j] *= ex
+    _move_ends(flat, indices, first, count, at, wa, wb)
 
 
+@kernel(inline="always")
+def _xpbd_block(flat, indices, rest, alpha_tilde, params, p, first, count, at, length2, wa, wb):
+    """The XPBD update of constraints first .. first+count-1 (``params`` and p unused)."""
+    _measure_edges(flat, indices, first, count, at, length2, wa, wb)
+    for i in range(count):
+        c = first + i
+        j = at + i
+        ex = _edge_slack(rest[c], length2[j]) / (FLT_EPSILON + wa[j] + wb[j] + alpha_tilde[c])
+        wa[j] *= ex
+        wb[j] *= ex
+    _move_ends(flat, indices, first, count, at, wa, wb)
+
+
+def _make_solver(xpbd: bool):
+    """The layered phase loop around ``_xpbd_block`` or ``_edge_block`` (see the comment
+    above BLOCK). ``xpbd`` is a closure constant (numba prunes the other branch before typing):
+    a captured function would pickle differently in every process and defeat the cache."""
+
+    def solve(indices, rest, per_constraint, set_offsets, phase_set_offsets, params, layer_group_offsets,
+              group_phase_offsets, cur):
+        flat = cur.reshape(-1)
+        scratch = np.empty((3, _scratch_size(set_offsets, layer_group_offsets)), cur.dtype)
+        length2 = scratch[0]
+        wa = scratch[1]  # the inverse masses, then the per-end factors ex * w
+        wb = scratch[2]
+        for layer in range(layer_group_offsets.shape[0] - 1):
+            g0 = layer_group_offsets[layer]
+            groups = layer_group_offsets[layer + 1] - g0
+            if groups == 1:
+                for p in range(group_phase_offsets[g0], group_phase_offsets[g0 + 1]):
+                    for s in range(phase_set_offsets[p], phase_set_offsets[p + 1]):
+                        first = np.uintp(set_offsets[s])
+                        size = set_offsets[s + 1] - set_offsets[s]
+                        for block in numba.prange((size + BLOCK - 1) // BLOCK):
+                            lo = np.uintp(block * BLOCK)
+                            count = np.uintp(min(BLOCK, size - block * BLOCK))
+                            if xpbd:
+                                _xpbd_block(flat, indices, rest, per_constraint, params, p, first + lo, count, lo, length2, wa, wb)
+                            else:
+                                _edge_block(flat, indices, rest, per_constraint, params, p, first + lo, count, lo, length2, wa, wb)
+            else:
+                for g_in_layer in numba.prange(groups):
+                    g = g0 + g_in_layer
+                    at = np.uintp(g_in_layer * BLOCK)
+                    for p in range(group_phase_offsets[g], group_phase_offsets[g + 1]):
+                        for s in range(phase_set_offsets[p], phase_set_offsets[p + 1]):
+                            first = np.uintp(set_offsets[s])
+                            size = set_offsets[s + 1] - set_offsets[s]
+                            for block in range((size + BLOCK - 1) // BLOCK):
+                                lo = np.uintp(block * BLOCK)
+                                count = np.uintp(min(BLOCK, size - block * BLOCK))
+                                if xpbd:
+                                    _xpbd_block(flat, indices, rest, per_constraint, params, p, first + lo, count, at, length2, wa, wb)
+                                else:
+                                    _edge_block(flat, indices, rest, per_constraint, params, p, first + lo, count, at, length2, wa, wb)
+
+    return solve
+
+
+_solve_phases = _make_solver(False)
+_solve_phases.__doc__ = """NvCloth's edge constraints, phase by phase. params (p,4): per phase (stiffness,
+multiplier, compression term, stretch term); per_constraint: the painted stiffness."""
+_solve_phases.__name__ = _solve_phases.__qualname__ = "_solve_phases"
 solve_phases, solve_phases_parallel = serial_and_parallel(_solve_phases)
 
+_solve_phases_xpbd = _make_solver(True)
+_solve_phases_xpbd.__doc__ = """XPBD (Macklin et al. 2016) distance constraints, one iteration per substep.
 
-def _solve_phases_xpbd(indices, rest, alpha_tilde, set_offsets, cur):
-    """XPBD (Macklin et al. 2016) distance constraints, one iteration per substep.
-
-    With the Lagrange multiplier reset every substep, the update of constraint c is
-    dlambda = -C / (wa + wb + alpha_tilde_c), alpha_tilde_c = compliance_c / h^2, i.e. the
-    edge-constraint update above with stiffness 1 and alpha_tilde in the denominator; as h
-    shrinks the solution converges to the elastic material's instead of depending on h.
-    """
-    flat = cur.reshape(-1)
-    scratch = np.empty((3, _largest_set(set_offsets)), cur.dtype)
-    length2 = scratch[0]
-    wa = scratch[1]
-    wb = scratch[2]
-    for s in range(set_offsets.shape[0] - 1):
-        first = np.uintp(set_offsets[s])
-        size = set_offsets[s + 1] - set_offsets[s]
-        for block in numba.prange((size + BLOCK - 1) // BLOCK):
-            lo = np.uintp(block * BLOCK)
-            hi = np.uintp(min(block * BLOCK + BLOCK, size))
-            _measure_edges(flat, indices, first, lo, hi, length2, wa, wb)
-            for j in range(lo, hi):
-                c = first + j
-                ex = _edge_slack(rest[c], length2[j]) / (FLT_EPSILON + wa[j] + wb[j] + alpha_tilde[c])
-                wa[j] *= ex
-                wb[j] *= ex
-            _move_ends(flat, indices, first, lo, hi, wa, wb)
-
-
+With the Lagrange multiplier reset every substep, the update of constraint c is
+dlambda = -C / (wa + wb + alpha_tilde_c), alpha_tilde_c = compliance_c / h^2, i.e. the
+edge-constraint update above with stiffness 1 and alpha_tilde (per_constraint) in the
+denominator; as h shrinks the solution converges to the elastic material's instead of
+depending on h. params is unused (pass any (p,4) array)."""
+_solve_phases_xpbd.__name__ = _solve_phases_xpbd.__qualname__ = "_solve_phases_xpbd"
 solve_xpbd, solve_xpbd_parallel = serial_and_parallel(_solve_phases_xpbd)
