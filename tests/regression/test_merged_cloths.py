@@ -108,6 +108,15 @@ def test_merged_bake_writes_the_same_bytes(tmp_path, precision, mode, extra, max
     assert min(speeds) > 0 and len(set(speeds)) > 1
 
 
+def test_merged_bake_with_percentiles_and_penetration_reports_the_same(tmp_path):
+    """Percentiles come from each cloth's own meter, the rest from the group's measure."""
+    scene = scene_file(tmp_path, copies=3, frames=8)
+    merged, apart, merged_stats, apart_stats = merged_and_apart(scene, tmp_path, percentiles=True, penetration=True)
+    assert merged == apart
+    assert merged_stats.per_frame == apart_stats.per_frame
+    assert "p99" in merged_stats.per_frame[-1]["cloths"]["sheet2"]["strain"]["bending"]
+
+
 def test_merged_bake_with_stage_profile_is_the_same(tmp_path):
     """--profile runs the merged cloth's stages one by one from Python: the same bits."""
     scene = scene_file(tmp_path, copies=3, frames=10, precision="float32")
