@@ -302,7 +302,7 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     wall0, cpu0 = time.perf_counter(), time.process_time()
     profiler = StageProfiler()
     solvers = make_solvers(scene, profiler, options.merge_cloths)
-    meters = make_meters(solvers)  # one compiled call measures a merged group's cloths
+    meters = make_meters(solvers)  # a merged group's cloths are measured together
     stats = BakeStats(
         scene=scene.name,
         output=Path(str(getattr(output, "path", output))).name,
