@@ -25,7 +25,7 @@ from clothtool.scene.tracks import quat_to_matrices
 from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
 from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import FramePath, Pose
-from clothtool.solver.measure import ClothMeter
+from clothtool.solver.groupmeter import make_meters
 from clothtool.solver.model import build_model
 from clothtool.workload import iterations_per_frame
 
@@ -43,7 +43,9 @@ class BakeOptions:
     metadata: extra string metadata for the cache header (e.g. a wedge's settings);
     profile_stages: time every solver stage (``--profile``): the position-based solver then
         runs its stages one by one from Python instead of a frame at a time in compiled code
-        (the same bits, slower)."""
+        (the same bits, slower);
+    merge_cloths: solve the cloths that can share a solve as one (clothtool.solver.merge; the
+        same bits as solving each alone, one compiled call per frame for all of them)."""
 
     percentiles: bool = False
     penetration: bool = False
@@ -52,6 +54,7 @@ class BakeOptions:
     progress: Callable[[int, int], None] | None = None
     metadata: tuple[tuple[str, str], ...] = ()
     profile_stages: bool = False
+    merge_cloths: bool = True
 
 
 @dataclasses.dataclass
@@ -177,9 +180,10 @@ def _attachment(scene: Scene, cloth, model):
     return bind_attachment(model.rest_pos, bound, pinned[bound], points, triangles[mask], cloth.name)
 
 
-def make_solvers(scene: Scene, profiler: StageProfiler) -> list[Integrator]:
+def make_solvers(scene: Scene, profiler: StageProfiler, merge: bool = True) -> list[Integrator]:
     """One solver of the scene's integrator per cloth instance (after checking the
-    integrator can do all the scene asks for)."""
+    integrator can do all the scene asks for); with ``merge``, cloths that can share a solve
+    share one (clothtool.solver.merge)."""
     solver_class = check_capabilities(scene).load()
     wind = None
     density = AIR_DENSITY
@@ -206,6 +210,10 @@ def make_solvers(scene: Scene, profiler: StageProfiler) -> list[Integrator]:
     if scene.solver.cloth_collision:  # each cloth collides with the scene's other cloths
         for solver in solvers:
             solver.set_neighbours(solvers)
+    if merge and len(solvers) > 1:
+        from clothtool.solver.merge import merge_solvers
+
+        solvers = merge_solvers(solvers)
     return solvers
 
 
@@ -293,8 +301,8 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
 def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
     wall0, cpu0 = time.perf_counter(), time.process_time()
     profiler = StageProfiler()
-    solvers = make_solvers(scene, profiler)
-    meters = [ClothMeter(solver) for solver in solvers]
+    solvers = make_solvers(scene, profiler, options.merge_cloths)
+    meters = make_meters(solvers)  # a merged group's cloths are measured together
     stats = BakeStats(
         scene=scene.name,
         output=Path(str(getattr(output, "path", output))).name,
