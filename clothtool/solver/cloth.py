@@ -112,7 +112,7 @@ class ClothSolver:
     # ------------------------------------------------------------------ frame loop
     def plan_frame(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
         """Plan frame ``frame``, simulated from ``time`` to ``end_time`` (default time + frame_dt)."""
-        iterations = max(1, int(frame_dt * self.config.frequency + 0.5))
+        iterations = FramePlan.iterations_for(frame_dt, self.config.frequency)
         h = frame_dt / iterations
         plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h, end_time)
         self._teleport_path = None

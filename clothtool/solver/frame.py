@@ -55,19 +55,43 @@ class Pose:
 class FramePath:
     """A moving frame over time: ``path(time)`` is its Pose, ``path.poses(times)`` the poses
     at many times at once (a frame's iteration ends are sampled together: one vectorised
-    call instead of one per iteration). ``many`` (times -> list of Poses) is optional."""
+    call instead of one per iteration). ``many`` (times -> list of Poses) is optional.
+    ``planned``: times the path will be asked for (a bake's iteration ends), sampled together
+    at the first request and then looked up; any other time is sampled when asked. ``many``
+    must give a time the same pose whatever other times it samples with it."""
 
-    def __init__(self, at: Callable[[float], Pose], many: Callable[[np.ndarray], list[Pose]] | None = None):
+    def __init__(
+        self,
+        at: Callable[[float], Pose],
+        many: Callable[[np.ndarray], list[Pose]] | None = None,
+        planned=(),
+    ):
         self._at = at
         self._many = many
+        self._planned = np.asarray(planned, np.float64)
+        self._known: dict[float, Pose] | None = None
 
     def __call__(self, time: float) -> Pose:
-        return self._at(time)
+        pose = self._lookup().get(time)
+        return pose if pose is not None else self._at(time)
 
     def poses(self, times) -> list[Pose]:
+        known = self._lookup()
+        found = [known.get(t) for t in times]
+        if None not in found:
+            return found
+        return self._sample(times)
+
+    def _sample(self, times) -> list[Pose]:
         if self._many is not None:
             return self._many(np.asarray(times, np.float64))
         return [self._at(float(t)) for t in times]
+
+    def _lookup(self) -> dict[float, Pose]:
+        if self._known is None:
+            planned = self._planned
+            self._known = dict(zip(planned.tolist(), self._sample(planned))) if planned.shape[0] else {}
+        return self._known
 
 
 def extrapolated_path(pose: Pose, later: Pose, dt: float):
