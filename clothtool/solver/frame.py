@@ -141,6 +141,8 @@ class FrameTerms:
     motion_offset: np.ndarray  # f32 (k,3)
     to_local: np.ndarray  # f64 (k,3,3)
     poses: list[Pose]  # k + 1 poses
+    rotations: np.ndarray  # f64 (k+1,3,3): the poses' rotations, stacked
+    translations: np.ndarray  # f64 (k+1,3): ... and translations
 
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
@@ -197,6 +199,8 @@ class FrameHistory:
             motion_offset=np.ascontiguousarray((inv @ dt_n1[:, :, None])[:, :, 0], np.float32),
             to_local=inv,
             poses=[self.now] + list(targets),
+            rotations=rotations[1:],
+            translations=translations[1:],
         )
         return terms
 
