@@ -10,7 +10,15 @@ import numpy as np
 from clothtool.profile import JIT_STAGE, StageProfiler
 from clothtool.settings import SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.frame import FrameHistory, FrameInertia, FramePath, FrameTerms, Pose, extrapolated_path
+from clothtool.solver.frame import (
+    FrameHistory,
+    FrameInertia,
+    FrameMotionAhead,
+    FramePath,
+    FrameTerms,
+    Pose,
+    extrapolated_path,
+)
 from clothtool.solver.framefn import FusedFrame, compile_for
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
@@ -20,6 +28,7 @@ from clothtool.solver.pipeline import build_stages
 from clothtool.solver.sleep import SleepState
 
 FRAME_STAGE = "frame"  # the profile's name for a frame's iterations run in one compiled call
+AHEAD_FRAMES = 32  # frames of a track's frame motion computed together (FrameMotionAhead)
 
 
 @dataclasses.dataclass
@@ -89,6 +98,7 @@ class ClothSolver:
         self.history: FrameHistory | None = None
         self.prev_h: float | None = None
         self._teleport_path: Callable[[float], Pose] | None = None  # the frame's path during a teleport frame
+        self._ahead: FrameMotionAhead | None = None  # see _terms_ahead
         self.sleep = SleepState()  # see clothtool.solver.sleep
         self.neighbours: list[ClothSolver] = []  # cloths whose particles this one collides with
         self.stages = build_stages(self)
@@ -124,15 +134,39 @@ class ClothSolver:
         self.frame_terms = None
         if self.track is not None:
             ends = [plan.iteration_end(index) for index in range(plan.iterations)]
-            targets = [self._teleport_path(t) for t in ends] if self._teleport_path else self.track.poses(ends)
-            self.frame_terms = self.history.advance_many(
-                targets, self.frame_scales, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
-                self.state.cur.dtype,
-            )
+            terms = None
+            if self._teleport_path:
+                targets = [self._teleport_path(t) for t in ends]
+            else:
+                targets = self.track.poses(ends)
+                terms = self._terms_ahead(plan, ends, targets)
+            if terms is None:
+                terms = self.history.advance_many(
+                    targets, self.frame_scales, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
+                    self.state.cur.dtype,
+                )
+            self.frame_terms = terms
         self.sleep.begin_frame(self, plan)
         for stage in self.stages:
             stage.begin_frame(plan)
         return plan
+
+    def _terms_ahead(self, plan: FramePlan, ends: list[float], targets: list[Pose]) -> FrameTerms | None:
+        """The frame's terms from the frame motion computed ahead, AHEAD_FRAMES frames of the
+        track's planned poses at a time (the same bits as advance_many); None when the frame
+        is not on the planned path (advance_many then computes them)."""
+        dtype = self.state.cur.dtype
+        ahead = self._ahead
+        terms = None if ahead is None else ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+        if terms is None:
+            following = self.track.following(ends[0], AHEAD_FRAMES * len(ends))
+            if len(following) > len(targets):
+                chain = [self.history.before, self.history.now] + following
+                self._ahead = ahead = FrameMotionAhead(
+                    chain, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency
+                )
+                terms = ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+        return terms
 
     def _teleport(self, plan: FramePlan) -> None:
         """The track jumps during this frame (between its start and end poses). Sampling the
