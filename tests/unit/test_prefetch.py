@@ -13,7 +13,8 @@ import pytest
 from clothtool.bake import _iteration_ends, _track_path
 from clothtool.scene.scene import load_scene
 from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
-from clothtool.solver.frame import FramePath, Pose
+from clothtool.solver import frame as frame_module
+from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose
 from clothtool.solver.iteration import FramePlan
 
 from tests.conftest import EXAMPLES
@@ -127,8 +128,83 @@ def test_frame_path_samples_planned_times_once():
         return [Pose(np.eye(3), np.array([t, 0.0, 0.0])) for t in times]
 
     path = FramePath(lambda t: many(np.array([t]))[0], many, planned=[0.1, 0.2, 0.3])
-    assert [p.translation[0] for p in path.poses([0.2, 0.3])] == [0.2, 0.3]
-    assert path(0.1).translation[0] == 0.1
-    assert calls == [3]  # the planned times, together, at the first request
+    assert [p.translation[0] for p in path.poses([0.1, 0.2])] == [0.1, 0.2]
+    assert path(0.3).translation[0] == 0.3
+    assert calls == [3]  # the planned times from the first asked for, together, at the first request
     assert path.poses([0.3, 0.4])[1].translation[0] == 0.4
     assert calls == [3, 2]  # a time not planned: sampled with the others asked together
+
+
+def _turning_path(planned=()):
+    """A frame spinning about Z and moving along X with an acceleration (closed-form poses)."""
+
+    def at(t: float) -> Pose:
+        angle = 0.7 * t + 0.3 * t * t
+        c, s = np.cos(angle), np.sin(angle)
+        return Pose(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array([t * t, 0.5 * t, 0.0]))
+
+    return FramePath(at, lambda times: [at(float(t)) for t in times], planned)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_frame_motion_ahead_gives_the_bits_of_advance_many(dtype):
+    h, k = 1.0 / 240.0, 10
+    inertia = FrameInertia(0.8, 0.6, 0.05, 0.1)
+    gravity = np.array([0.0, -9.81, 0.0])
+    ends = [h * (i + 1) for i in range(8 * k)]
+    path = _turning_path(ends)
+    targets = path.poses(ends[:k])
+    history = FrameHistory(path(-h))
+    history.now = path(0.0)
+    ahead = FrameMotionAhead([history.before, history.now] + path.following(ends[0], 5 * k), gravity, h, inertia, 90.0)
+    scales = np.linspace(0.9, 1.0, k)
+    for frame in range(5):
+        expected = history.advance_many(targets, scales, gravity, h, inertia, 90.0, dtype)
+        got = ahead.terms(history, targets, scales, h, dtype)
+        for name in ("m_cur", "m_prev", "bias", "motion_matrix", "motion_offset", "to_local", "rotations", "translations"):
+            a, b = getattr(got, name), getattr(expected, name)
+            assert a.dtype == b.dtype and np.array_equal(a, b), (frame, name)
+        assert all(p is q for p, q in zip(got.poses, expected.poses))
+        history.before, history.now = got.poses[-2:]
+        targets = path.poses(ends[(frame + 1) * k:(frame + 2) * k])
+    # past its chain, at another h, or from a history off the chain: None (advance_many then)
+    assert ahead.terms(history, targets, scales, h, dtype) is None
+    assert ahead.terms(FrameHistory(path(0.5)), path.poses(ends[:k]), scales, h, dtype) is None
+
+
+def test_frame_motion_ahead_matches_world_space_verlet():
+    """With full inertia, no drag and no damping, the local-frame step of a particle at rest in
+    the world is world-space Verlet: it stays where it is (module docstring of solver.frame)."""
+    h = 0.01
+    path = _turning_path([h * (i + 1) for i in range(20)])
+    history = FrameHistory(path(-h))
+    history.now = path(0.0)
+    ahead = FrameMotionAhead([history.before, history.now] + path.following(h, 20), np.zeros(3), h, FrameInertia(), 1.0)
+    terms = ahead.terms(history, path.poses([h * (i + 1) for i in range(4)]), np.ones(4), h, np.float64)
+    world = np.array([0.3, -0.2, 0.5])
+    before, now = history.before.to_local(world), history.now.to_local(world)
+    for i in range(4):
+        x = now + terms.m_cur[i] @ now + terms.m_prev[i] @ before + terms.bias[i]  # integrate_affine
+        np.testing.assert_allclose(terms.poses[i + 1].to_world(x), world, atol=1e-12)
+        before, now = now, x
+
+
+def test_frame_path_window_slides_and_keeps_the_poses_it_holds(monkeypatch):
+    monkeypatch.setattr(frame_module, "PLANNED_CHUNK", 8)
+    sampled = []
+    plain = _turning_path()
+
+    def many(times):
+        sampled.append(len(times))
+        return [plain(float(t)) for t in times]
+
+    planned = [0.1 * (i + 1) for i in range(30)]
+    path = FramePath(plain, many, planned)
+    first = path.poses(planned[:5])
+    assert sampled == [8]
+    following = path.following(planned[3], 10)  # 10 from the 4th: the window slides on by 5
+    assert sampled == [8, 5] and len(following) == 10
+    assert following[0] is first[3] and following[1] is first[4]  # kept, not sampled again
+    assert path.poses(planned[3:5]) == [following[0], following[1]]
+    assert len(path.following(planned[25], 10)) == 5  # fewer at the end of the planned times
+    np.testing.assert_array_equal(path(planned[29]).translation, plain(planned[29]).translation)
