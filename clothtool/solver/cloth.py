@@ -84,6 +84,8 @@ class ClothSolver:
         self.track = track if track is None or isinstance(track, FramePath) else FramePath(track)
         self.frame_scales = np.ones(1)  # this frame's velocity scale per iteration (plan_frame)
         self.frame_ratios = np.ones(1)  # ... and its time-step ratio h / h_prev alone
+        self._frame_scales = self.frame_scales
+        self._scales_key: tuple | None = None  # (h, h_prev, iterations) of _frame_scales
         self.frame_terms: FrameTerms | None = None  # this frame's motion terms per iteration, with a track
         self.teleport_frames = teleport_frames
         self.initial_velocity = np.asarray(initial_velocity, np.float64)
@@ -198,11 +200,16 @@ class ClothSolver:
 
     def _scales(self, plan: FramePlan) -> np.ndarray:
         """f64 (iterations,) velocity scale of each iteration: damping over h, and the first
-        iteration also h / h_prev (the time step's change)."""
-        scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, plan.h)
-        self.frame_ratios = np.ones(plan.iterations)
-        self.frame_ratios[0] = plan.h / self.prev_h
-        return scale * self.frame_ratios
+        iteration also h / h_prev (the time step's change). The same arrays while h, h_prev
+        and the iteration count stay (every frame of a usual bake)."""
+        key = (plan.h, self.prev_h, plan.iterations)
+        if key != self._scales_key:
+            self._scales_key = key
+            scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, plan.h)
+            self.frame_ratios = np.ones(plan.iterations)
+            self.frame_ratios[0] = plan.h / self.prev_h
+            self._frame_scales = scale * self.frame_ratios
+        return self._frame_scales
 
     def iteration(self, plan: FramePlan, index: int) -> Iteration:
         """Iteration ``index`` of the planned frame (its terms were computed by plan_frame);
