@@ -16,7 +16,6 @@ from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver import frame as frame_module
 from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose
 from clothtool.solver.iteration import FramePlan
-
 from tests.conftest import EXAMPLES
 
 SCENE = f"""
