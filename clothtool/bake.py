@@ -26,6 +26,7 @@ from clothtool.sim.integrators import Integrator, check_capabilities, integrator
 from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import FramePath, Pose
 from clothtool.solver.groupmeter import make_meters
+from clothtool.solver.iteration import FramePlan
 from clothtool.solver.model import build_model
 from clothtool.workload import iterations_per_frame
 
@@ -150,14 +151,28 @@ class BakeStats:
         }
 
 
-def _track_path(track) -> FramePath:
-    """The cloth frame that follows ``track``, sampled many times at once."""
+def _track_path(track, planned=()) -> FramePath:
+    """The cloth frame that follows ``track``, sampled many times at once; ``planned``: the
+    times the bake will ask for (``_iteration_ends``), all sampled in one call."""
 
     def poses(times: np.ndarray) -> list[Pose]:
         translations, rotations, _ = track.sample_many(times)
         return [Pose(m, t) for m, t in zip(quat_to_matrices(rotations), translations)]
 
-    return FramePath(lambda time: poses(np.array([time]))[0], poses)
+    return FramePath(lambda time: poses(np.array([time]))[0], poses, planned)
+
+
+def _iteration_ends(scene: Scene) -> list[float]:
+    """Seconds at the end of every iteration of every frame the bake simulates (pre-roll
+    included), as the position-based solver's plan_frame computes them."""
+    frame_dt = 1.0 / scene.fps
+    iterations = FramePlan.iterations_for(frame_dt, scene.solver.frequency)
+    ends = []
+    for frame in range(scene.start_frame - scene.preroll + 1, scene.end_frame + 1):
+        plan = FramePlan(frame, scene.frame_time(frame - 1), frame_dt, iterations, frame_dt / iterations, 0.0,
+                         scene.frame_time(frame))
+        ends += [plan.iteration_end(index) for index in range(iterations)]
+    return ends
 
 
 def rest_time(scene: Scene) -> float:
@@ -198,7 +213,7 @@ def make_solvers(scene: Scene, profiler: StageProfiler, merge: bool = True) -> l
             cloth.name, cloth.fabric, cloth.material, cloth.placement, scene.meters_per_unit, scene.up_axis,
             cloth.motion, cloth.backstop,
         )
-        track = _track_path(cloth.track) if cloth.track is not None else None
+        track = _track_path(cloth.track, _iteration_ends(scene)) if cloth.track is not None else None
         teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
         extra = {"frame_dt": 1.0 / scene.fps} if scene.solver.integrator == "explicit" else {}
         attachment = _attachment(scene, cloth, model)

@@ -22,7 +22,7 @@ import numpy as np
 from clothtool.collision.colliders import ColliderArrays, ColliderInfo
 from clothtool.errors import ClothtoolError, SceneError
 from clothtool.inputs import note_input
-from clothtool.scene.tracks import Track
+from clothtool.scene.tracks import Track, quat_to_matrices
 
 KINDS = ("sphere", "capsule", "plane", "convex", "mesh")
 COMMON_KEYS = ("kind", "track", "thickness", "friction")
@@ -135,11 +135,13 @@ def _rotation_from_to(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 class SceneColliders:
-    """All colliders of a scene; ``at(time)`` gives world ColliderArrays (memoised per time)."""
+    """All colliders of a scene; ``at(time)`` gives world ColliderArrays (memoised per time;
+    ``prefetch`` evaluates a bake's frame times together)."""
 
     def __init__(self, colliders: tuple[Collider, ...]):
         self.colliders = colliders
         self._cache: dict[float, ColliderArrays] = {}
+        self._prefetched: _ColliderSamples | None = None
 
     def __len__(self) -> int:
         return len(self.colliders)
@@ -157,16 +159,24 @@ class SceneColliders:
         )
 
     def prefetch(self, times) -> None:
-        """Sample every collider's track at all of ``times`` at once (a bake's frame times)."""
-        for track in {id(c.track): c.track for c in self.colliders if c.track is not None}.values():
-            track.prefetch(times)
+        """Evaluate the colliders at all of ``times`` at once (a bake's frame times): every
+        track sampled in one vectorised call, spheres and capsules placed for all times
+        together. ``at`` then finds these times (mesh points are placed when asked, so that
+        a long bake of a big body does not hold every frame's points)."""
+        self._prefetched = _ColliderSamples(self.colliders, np.asarray(times, np.float64), prefetch_tracks=True)
+        self._cache.clear()
 
     def at(self, time: float) -> ColliderArrays:
-        if time not in self._cache:
+        arrays = self._cache.get(time)
+        if arrays is None:
             if len(self._cache) > 4:  # a bake asks for the start and end of each frame
                 self._cache.clear()
-            self._cache[time] = self._evaluate(time)
-        return self._cache[time]
+            samples = self._prefetched
+            row = None if samples is None else samples.rows.get(time)
+            if row is None:  # the same code for one time: the same bits as a prefetched time
+                samples, row = _ColliderSamples(self.colliders, np.array([float(time)])), 0
+            arrays = self._cache[time] = samples.arrays(row)
+        return arrays
 
     def rest_mesh(self, time: float, names) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The mesh colliders in their rest pose, placed by their tracks at ``time``: world
@@ -186,20 +196,53 @@ class SceneColliders:
             return np.zeros((0, 3)), np.zeros((0, 3), np.int32), np.zeros(0, bool)
         return np.concatenate(points), np.concatenate(triangles).astype(np.int32), np.concatenate(mask)
 
-    def _evaluate(self, time: float) -> ColliderArrays:
+
+def _f32(values, shape) -> np.ndarray:
+    return np.asarray(values, np.float32).reshape(shape)
+
+
+def _matrices(collider: Collider, times: np.ndarray, prefetch_track: bool) -> np.ndarray:
+    """(T,4,4) local -> world matrices at ``times``, each as ``collider.matrix`` gives it."""
+    m = np.zeros((times.shape[0], 4, 4))
+    m[:] = np.eye(4)
+    if collider.track is not None:
+        track = collider.track
+        translations, rotations, scales = track.prefetch(times) if prefetch_track else track.sample_many(times)
+        m[:, :3, :3] = quat_to_matrices(rotations) * scales[:, None, :]
+        m[:, :3, 3] = translations
+    return m
+
+
+class _ColliderSamples:
+    """The scene's colliders at several times: what stays the same at every time (margins,
+    frictions, counts, triangles) once, spheres, capsule ends and planes as (T, ...) stacks;
+    ``arrays(row)`` is the ColliderArrays at ``times[row]``. Every value is computed with the
+    operations a single time would use (matrix by vector, row by row), so one time and many
+    give the same bits."""
+
+    def __init__(self, colliders: tuple[Collider, ...], times: np.ndarray, prefetch_tracks: bool = False):
+        self.colliders = colliders
+        self.times = times
+        self.rows = {float(t): row for row, t in enumerate(times)}
+        count = times.shape[0]
+        tracks: dict[int, np.ndarray] = {}  # colliders sharing a track share its matrices
         centers, radii, s_margin, s_friction, s_collider = [], [], [], [], []
         capsules, c_margin, c_friction = [], [], []
         planes, offsets, v_margin, v_friction = [], [0], [], []
-        points, triangles, tri_mesh, m_margin, m_friction = [], [], [], [], []
+        self.meshes: list[tuple[Collider, np.ndarray]] = []  # (collider, (T,4,4) matrices)
+        triangles, tri_mesh, m_margin, m_friction = [], [], [], []
         point_count = 0
-        for collider in self.colliders:
-            m = collider.matrix(time)
-            linear, translation = m[:3, :3], m[:3, 3]
-            scale = float(np.cbrt(abs(np.linalg.det(linear))))
+        for collider in colliders:
+            key = id(collider.track)
+            if key not in tracks:
+                tracks[key] = _matrices(collider, times, prefetch_tracks)
+            m = tracks[key]
+            linear, translation = m[:, :3, :3], m[:, :3, 3]
             if collider.kind in ("sphere", "capsule"):
+                scale = np.cbrt(np.abs(np.linalg.det(linear)))
                 first = len(centers)
                 for c, r in zip(collider.centers, collider.radii):
-                    centers.append(linear @ c + translation)
+                    centers.append(np.matmul(linear, c) + translation)
                     radii.append(r * scale)
                     s_margin.append(collider.thickness)
                     s_friction.append(collider.friction)
@@ -209,43 +252,68 @@ class SceneColliders:
                     c_margin.append(collider.thickness)
                     c_friction.append(collider.friction)
             elif collider.kind in ("plane", "convex"):
-                normal_matrix = np.linalg.inv(linear).T
-                for plane in collider.planes:
-                    n = normal_matrix @ plane[:3]
-                    length = np.linalg.norm(n)
-                    point_on = linear @ (plane[:3] * plane[3]) + translation  # local n.x = d at x = d n
-                    n = n / length
-                    planes.append((*n, float(n @ point_on)))
-                offsets.append(len(planes))
+                planes.append(self._planes(collider, linear, translation))
+                offsets.append(offsets[-1] + collider.planes.shape[0])
                 v_margin.append(collider.thickness)
                 v_friction.append(collider.friction)
             else:
-                local = collider.local_points(time)
-                points.append(local @ linear.T + translation)
+                self.meshes.append((collider, m))
                 triangles.append(collider.mesh_triangles + point_count)
                 tri_mesh.append(np.full(collider.mesh_triangles.shape[0], len(m_margin), np.int32))
-                point_count += local.shape[0]
+                point_count += collider.rest_pose().shape[0]
                 m_margin.append(collider.thickness)
                 m_friction.append(collider.friction)
-        f32 = lambda values, shape: np.asarray(values, np.float32).reshape(shape)  # noqa: E731
-        return ColliderArrays(
-            sphere_center=f32(centers, (-1, 3)),
-            sphere_radius=f32(radii, -1),
-            sphere_margin=f32(s_margin, -1),
-            sphere_friction=f32(s_friction, -1),
+        # (T, s, 3) and (T, s): time first, so that each time's rows are contiguous
+        self.sphere_center = _f32(np.stack(centers, axis=1) if centers else np.zeros((count, 0, 3)), (count, -1, 3))
+        self.sphere_radius = _f32(np.stack(radii, axis=1) if radii else np.zeros((count, 0)), (count, -1))
+        self.plane = _f32(np.concatenate(planes, axis=1) if planes else np.zeros((count, 0, 4)), (count, -1, 4))
+        self.fixed = dict(
+            sphere_margin=_f32(s_margin, -1),
+            sphere_friction=_f32(s_friction, -1),
             sphere_is_collider=np.asarray(s_collider, bool),
             capsule_spheres=np.asarray(capsules, np.int32).reshape(-1, 2),
-            capsule_margin=f32(c_margin, -1),
-            capsule_friction=f32(c_friction, -1),
-            plane=f32(planes, (-1, 4)),
+            capsule_margin=_f32(c_margin, -1),
+            capsule_friction=_f32(c_friction, -1),
             convex_plane_offsets=np.asarray(offsets, np.int32),
-            convex_margin=f32(v_margin, -1),
-            convex_friction=f32(v_friction, -1),
-            mesh_points=f32(np.concatenate(points) if points else [], (-1, 3)),
+            convex_margin=_f32(v_margin, -1),
+            convex_friction=_f32(v_friction, -1),
             mesh_triangles=np.concatenate(triangles).astype(np.int32) if triangles else np.zeros((0, 3), np.int32),
             triangle_mesh=np.concatenate(tri_mesh) if tri_mesh else np.zeros(0, np.int32),
-            mesh_margin=f32(m_margin, -1),
-            mesh_friction=f32(m_friction, -1),
+            mesh_margin=_f32(m_margin, -1),
+            mesh_friction=_f32(m_friction, -1),
+        )
+        self._no_mesh_points = np.zeros((0, 3), np.float32)
+
+    @staticmethod
+    def _planes(collider: Collider, linear: np.ndarray, translation: np.ndarray) -> np.ndarray:
+        """(T, p, 4) world planes (unit normal, offset); time by time, as one time would."""
+        result = np.empty((linear.shape[0], collider.planes.shape[0], 4))
+        for row in range(linear.shape[0]):
+            normal_matrix = np.linalg.inv(linear[row]).T
+            for index, plane in enumerate(collider.planes):
+                n = normal_matrix @ plane[:3]
+                length = np.linalg.norm(n)
+                point_on = linear[row] @ (plane[:3] * plane[3]) + translation[row]  # local n.x = d at x = d n
+                n = n / length
+                result[row, index] = (*n, float(n @ point_on))
+        return result
+
+    def _mesh_points(self, row: int) -> np.ndarray:
+        if not self.meshes:
+            return self._no_mesh_points
+        time = float(self.times[row])
+        points = []
+        for collider, m in self.meshes:
+            points.append(collider.local_points(time) @ m[row, :3, :3].T + m[row, :3, 3])
+        return _f32(np.concatenate(points), (-1, 3))
+
+    def arrays(self, row: int) -> ColliderArrays:
+        return ColliderArrays(
+            sphere_center=self.sphere_center[row],
+            sphere_radius=self.sphere_radius[row],
+            plane=self.plane[row],
+            mesh_points=self._mesh_points(row),
+            **self.fixed,
         )
 
 

@@ -224,9 +224,12 @@ class Track:
         """The pose at ``time`` seconds. The last few samples are kept: a bake asks for a
         collider's pose at a frame's end, then again at the next frame's start and for the
         cache's transforms (the arrays are shared: do not modify them)."""
-        sample = self.__dict__.get("_prefetched", {}).get(time)
-        if sample is not None:
-            return sample
+        prefetched = self.__dict__.get("_prefetched")
+        if prefetched is not None:
+            rows, (translations, rotations, scales) = prefetched
+            row = rows.get(time)
+            if row is not None:
+                return TrackSample(translations[row], rotations[row], scales[row])
         recent = self.__dict__.setdefault("_recent", {})
         sample = recent.get(time)
         if sample is None:
@@ -236,14 +239,13 @@ class Track:
                 del recent[next(iter(recent))]
         return sample
 
-    def prefetch(self, times) -> None:
+    def prefetch(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Sample all of ``times`` now, in one vectorised call (a bake's frame times): later
-        ``sample`` calls at these times find them."""
+        ``sample`` calls at these times find them. Returns ``sample_many(times)``."""
         times = np.asarray(times, np.float64)
-        translations, rotations, scales = self.sample_many(times)
-        self.__dict__["_prefetched"] = {
-            float(t): TrackSample(translations[i], rotations[i], scales[i]) for i, t in enumerate(times)
-        }
+        samples = self.sample_many(times)
+        self.__dict__["_prefetched"] = ({float(t): row for row, t in enumerate(times)}, samples)
+        return samples
 
     def sample_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Translations (m,3), unit quaternions (m,4) and scales (m,3) at (m,) ``times``

@@ -10,7 +10,15 @@ import numpy as np
 from clothtool.profile import JIT_STAGE, StageProfiler
 from clothtool.settings import SolverConfig
 from clothtool.solver.environment import Environment
-from clothtool.solver.frame import FrameHistory, FrameInertia, FramePath, FrameTerms, Pose, extrapolated_path
+from clothtool.solver.frame import (
+    FrameHistory,
+    FrameInertia,
+    FrameMotionAhead,
+    FramePath,
+    FrameTerms,
+    Pose,
+    extrapolated_path,
+)
 from clothtool.solver.framefn import FusedFrame, compile_for
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
@@ -20,6 +28,7 @@ from clothtool.solver.pipeline import build_stages
 from clothtool.solver.sleep import SleepState
 
 FRAME_STAGE = "frame"  # the profile's name for a frame's iterations run in one compiled call
+AHEAD_FRAMES = 32  # frames of a track's frame motion computed together (FrameMotionAhead)
 
 
 @dataclasses.dataclass
@@ -75,6 +84,8 @@ class ClothSolver:
         self.track = track if track is None or isinstance(track, FramePath) else FramePath(track)
         self.frame_scales = np.ones(1)  # this frame's velocity scale per iteration (plan_frame)
         self.frame_ratios = np.ones(1)  # ... and its time-step ratio h / h_prev alone
+        self._frame_scales = self.frame_scales
+        self._scales_key: tuple | None = None  # (h, h_prev, iterations) of _frame_scales
         self.frame_terms: FrameTerms | None = None  # this frame's motion terms per iteration, with a track
         self.teleport_frames = teleport_frames
         self.initial_velocity = np.asarray(initial_velocity, np.float64)
@@ -89,6 +100,7 @@ class ClothSolver:
         self.history: FrameHistory | None = None
         self.prev_h: float | None = None
         self._teleport_path: Callable[[float], Pose] | None = None  # the frame's path during a teleport frame
+        self._ahead: FrameMotionAhead | None = None  # see _terms_ahead
         self.sleep = SleepState()  # see clothtool.solver.sleep
         self.neighbours: list[ClothSolver] = []  # cloths whose particles this one collides with
         self.stages = build_stages(self)
@@ -112,7 +124,7 @@ class ClothSolver:
     # ------------------------------------------------------------------ frame loop
     def plan_frame(self, frame: int, time: float, frame_dt: float, end_time: float | None = None) -> FramePlan:
         """Plan frame ``frame``, simulated from ``time`` to ``end_time`` (default time + frame_dt)."""
-        iterations = max(1, int(frame_dt * self.config.frequency + 0.5))
+        iterations = FramePlan.iterations_for(frame_dt, self.config.frequency)
         h = frame_dt / iterations
         plan = FramePlan(frame, time, frame_dt, iterations, h, self.config.stiffness_frequency * h, end_time)
         self._teleport_path = None
@@ -124,15 +136,39 @@ class ClothSolver:
         self.frame_terms = None
         if self.track is not None:
             ends = [plan.iteration_end(index) for index in range(plan.iterations)]
-            targets = [self._teleport_path(t) for t in ends] if self._teleport_path else self.track.poses(ends)
-            self.frame_terms = self.history.advance_many(
-                targets, self.frame_scales, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
-                self.state.cur.dtype,
-            )
+            terms = None
+            if self._teleport_path:
+                targets = [self._teleport_path(t) for t in ends]
+            else:
+                targets = self.track.poses(ends)
+                terms = self._terms_ahead(plan, ends, targets)
+            if terms is None:
+                terms = self.history.advance_many(
+                    targets, self.frame_scales, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
+                    self.state.cur.dtype,
+                )
+            self.frame_terms = terms
         self.sleep.begin_frame(self, plan)
         for stage in self.stages:
             stage.begin_frame(plan)
         return plan
+
+    def _terms_ahead(self, plan: FramePlan, ends: list[float], targets: list[Pose]) -> FrameTerms | None:
+        """The frame's terms from the frame motion computed ahead, AHEAD_FRAMES frames of the
+        track's planned poses at a time (the same bits as advance_many); None when the frame
+        is not on the planned path (advance_many then computes them)."""
+        dtype = self.state.cur.dtype
+        ahead = self._ahead
+        terms = None if ahead is None else ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+        if terms is None:
+            following = self.track.following(ends[0], AHEAD_FRAMES * len(ends))
+            if len(following) > len(targets):
+                chain = [self.history.before, self.history.now] + following
+                self._ahead = ahead = FrameMotionAhead(
+                    chain, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency
+                )
+                terms = ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+        return terms
 
     def _teleport(self, plan: FramePlan) -> None:
         """The track jumps during this frame (between its start and end poses). Sampling the
@@ -164,11 +200,16 @@ class ClothSolver:
 
     def _scales(self, plan: FramePlan) -> np.ndarray:
         """f64 (iterations,) velocity scale of each iteration: damping over h, and the first
-        iteration also h / h_prev (the time step's change)."""
-        scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, plan.h)
-        self.frame_ratios = np.ones(plan.iterations)
-        self.frame_ratios[0] = plan.h / self.prev_h
-        return scale * self.frame_ratios
+        iteration also h / h_prev (the time step's change). The same arrays while h, h_prev
+        and the iteration count stay (every frame of a usual bake)."""
+        key = (plan.h, self.prev_h, plan.iterations)
+        if key != self._scales_key:
+            self._scales_key = key
+            scale = damping_scale(self.model.material.damping, self.config.stiffness_frequency, plan.h)
+            self.frame_ratios = np.ones(plan.iterations)
+            self.frame_ratios[0] = plan.h / self.prev_h
+            self._frame_scales = scale * self.frame_ratios
+        return self._frame_scales
 
     def iteration(self, plan: FramePlan, index: int) -> Iteration:
         """Iteration ``index`` of the planned frame (its terms were computed by plan_frame);

@@ -52,6 +52,9 @@ from clothtool.solver.kernels.collide_pose import (
 from clothtool.solver.meshfaces import collider_owners, sample_spacing
 from clothtool.solver.stage import Stage
 
+# What the sphere and capsule records are derived from besides positions and radii.
+_SPHERE_LAYOUT = ("sphere_is_collider", "sphere_margin", "sphere_friction", "capsule_spheres", "capsule_margin",
+                  "capsule_friction")
 # The mesh grid has at most this many cells per triangle.
 CELLS_PER_TRIANGLE = 16
 I32 = np.int32
@@ -162,6 +165,8 @@ class CollideStage(Stage):
         # end (k,8,3), the collider interpolation's alphas, and whether the mesh is posed
         self.frames = np.zeros((1, 8, 3))
         self.alpha0 = self.alpha1 = self.alpha_step = np.zeros(1)
+        self._alpha_iterations = 0  # the iteration count the alphas are for
+        self._layouts: dict[str, tuple] = {}  # see _same_layout
         self.pose_mesh = np.zeros(1, np.bool_)
 
     # ------------------------------------------------------------------ per frame
@@ -181,18 +186,20 @@ class CollideStage(Stage):
     def _iteration_arrays(self, plan: FramePlan) -> None:
         """The per-iteration values ``pose`` (and the compiled frame function) index."""
         k = plan.iterations
-        self.alpha0 = stacked([index / k for index in range(k)], np.float64)
-        self.alpha1 = stacked([(index + 1) / k for index in range(k)], np.float64)
-        self.alpha_step = self.alpha1 - self.alpha0
+        if self._alpha_iterations != k:  # the same every frame of the same iteration count
+            self._alpha_iterations = k
+            self.alpha0 = stacked([index / k for index in range(k)], np.float64)
+            self.alpha1 = stacked([(index + 1) / k for index in range(k)], np.float64)
+            self.alpha_step = self.alpha1 - self.alpha0
         frames = np.zeros((k, 8, 3))
-        frames[:, 0:3] = frames[:, 4:7] = np.eye(3)
         terms = self.solver.frame_terms
         if terms is not None:
-            poses = terms.poses
-            frames[:, 0:3] = [p.rotation for p in poses[:-1]]
-            frames[:, 3] = [p.translation for p in poses[:-1]]
-            frames[:, 4:7] = [p.rotation for p in poses[1:]]
-            frames[:, 7] = [p.translation for p in poses[1:]]
+            frames[:, 0:3] = terms.rotations[:-1]
+            frames[:, 3] = terms.translations[:-1]
+            frames[:, 4:7] = terms.rotations[1:]
+            frames[:, 7] = terms.translations[1:]
+        else:
+            frames[:, 0:3] = frames[:, 4:7] = np.eye(3)
         self.frames = frames
         # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
         self.pose_mesh = np.zeros(k, np.bool_)
@@ -243,6 +250,17 @@ class CollideStage(Stage):
                     "frame's end; colliders may move and deform but not change their point or primitive counts"
                 )
 
+    def _same_layout(self, kind: str, start: ColliderArrays, names: tuple[str, ...]) -> bool:
+        """True when ``start``'s arrays ``names`` are the very arrays of the last frame's (a
+        bake's prefetched colliders share them across frames): what is derived from them
+        alone (margins, frictions, counts) stands. Else remembers them for the next frame."""
+        arrays = tuple(getattr(start, name) for name in names)
+        last = self._layouts.get(kind)
+        if last is not None and all(a is b for a, b in zip(arrays, last)):
+            return True
+        self._layouts[kind] = arrays
+        return False
+
     def _copy_spheres(self, start: ColliderArrays, end: ColliderArrays) -> None:
         s = start.sphere_center.shape[0]
         worlds = tuple(_reuse(w, (s, 4)) for w in self.sphere_world)
@@ -250,6 +268,8 @@ class CollideStage(Stage):
             world[:, :3] = arrays.sphere_center
             world[:, 3] = arrays.sphere_radius
         self.sphere_world = worlds
+        if self._same_layout("spheres", start, _SPHERE_LAYOUT):
+            return
         self.sphere_start = _reuse(self.sphere_start, (s, 4))
         self.sphere_end = _reuse(self.sphere_end, (s, 4))
         colliders = np.flatnonzero(start.sphere_is_collider)
@@ -271,6 +291,8 @@ class CollideStage(Stage):
     def _copy_convexes(self, start: ColliderArrays, end: ColliderArrays) -> None:
         p = start.plane.shape[0]
         k = start.convex_plane_offsets.shape[0] - 1
+        if p == 0 and k == 0 and self.plane_world[0].shape[0] == 0 and self.convex_data.shape[0] == 0:
+            return  # no planes now nor before: nothing to copy
         worlds = tuple(_reuse(w, (p, 4)) for w in self.plane_world)
         worlds[0][:] = start.plane
         worlds[1][:] = end.plane
@@ -288,6 +310,11 @@ class CollideStage(Stage):
     def _copy_meshes(self, start: ColliderArrays, end: ColliderArrays) -> None:
         m = start.mesh_points.shape[0]
         t = start.mesh_triangles.shape[0]
+        if m == 0 and t == 0 and self.mesh_world[0].shape[0] == 0 and self.triangles.shape[0] == 0:
+            # no meshes now nor before: every mesh array is empty already (as below, cheaper)
+            self.mesh_still = self.solver.history is None
+            self._mesh_packed = self._mesh_packed and self.mesh_still
+            return
         same = (
             self.mesh_world[0].shape == (m, 3)
             and np.array_equal(self.mesh_world[0], start.mesh_points)

@@ -52,22 +52,75 @@ class Pose:
         return (points - self.translation) @ self.rotation
 
 
+# Planned times sampled together: a long bake's poses are not all held at once.
+PLANNED_CHUNK = 1024
+
+
 class FramePath:
     """A moving frame over time: ``path(time)`` is its Pose, ``path.poses(times)`` the poses
     at many times at once (a frame's iteration ends are sampled together: one vectorised
-    call instead of one per iteration). ``many`` (times -> list of Poses) is optional."""
+    call instead of one per iteration). ``many`` (times -> list of Poses) is optional.
 
-    def __init__(self, at: Callable[[float], Pose], many: Callable[[np.ndarray], list[Pose]] | None = None):
+    ``planned``: the times the path will be asked for (a bake's iteration ends, in order),
+    sampled PLANNED_CHUNK at a time in one call each and then looked up, the same Pose
+    object for a time as long as it is held; any other time is sampled when asked. ``many``
+    must give a time the same pose whatever times go with it."""
+
+    def __init__(
+        self,
+        at: Callable[[float], Pose],
+        many: Callable[[np.ndarray], list[Pose]] | None = None,
+        planned=(),
+    ):
         self._at = at
         self._many = many
+        self._planned = np.unique(np.asarray(planned, np.float64))  # sorted
+        self._start = 0  # the index in _planned of the first held pose
+        self._held: list[Pose] = []  # the poses of _planned[_start:_start + len(_held)]
+        self._row: dict[float, int] = {}  # time -> its pose's row in _held
 
     def __call__(self, time: float) -> Pose:
-        return self._at(time)
+        row = self._hold(time, 1)
+        return self._held[row] if row is not None else self._at(time)
 
     def poses(self, times) -> list[Pose]:
+        if len(times) and self._hold(times[0], len(times)) is not None:
+            rows = [self._row.get(t) for t in times]
+            if None not in rows:
+                held = self._held
+                return [held[row] for row in rows]
+        return self._sample(times)
+
+    def following(self, time: float, count: int) -> list[Pose]:
+        """Up to ``count`` planned poses from the one at ``time`` on (fewer at the end of the
+        planned times), the objects ``poses`` gives; [] when ``time`` is not planned."""
+        row = self._hold(time, count)
+        return [] if row is None else self._held[row : row + count]
+
+    def _sample(self, times) -> list[Pose]:
         if self._many is not None:
             return self._many(np.asarray(times, np.float64))
         return [self._at(float(t)) for t in times]
+
+    def _hold(self, time: float, count: int) -> int | None:
+        """The row of ``time``'s pose in ``_held`` with up to ``count`` planned poses from it
+        held (sampling the next ones, keeping those already held); None: not planned."""
+        row = self._row.get(time)
+        planned = self._planned
+        if row is not None:
+            if row + count <= len(self._held) or self._start + len(self._held) >= planned.shape[0]:
+                return row  # enough held, or nothing more planned
+            first = self._start + row
+        else:
+            first = int(np.searchsorted(planned, time))
+            if first >= planned.shape[0] or planned[first] != time:
+                return None
+        end = min(first + max(PLANNED_CHUNK, count), planned.shape[0])
+        kept = self._held[row:] if row is not None else []
+        self._held = kept + self._sample(planned[first + len(kept) : end])
+        self._start = first
+        self._row = dict(zip(planned[first:end].tolist(), range(end - first)))
+        return 0
 
 
 def extrapolated_path(pose: Pose, later: Pose, dt: float):
@@ -117,6 +170,8 @@ class FrameTerms:
     motion_offset: np.ndarray  # f32 (k,3)
     to_local: np.ndarray  # f64 (k,3,3)
     poses: list[Pose]  # k + 1 poses
+    rotations: np.ndarray  # f64 (k+1,3,3): the poses' rotations, stacked
+    translations: np.ndarray  # f64 (k+1,3): ... and translations
 
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
@@ -153,32 +208,82 @@ class FrameHistory:
         iteration."""
         rotations = np.stack([self.before.rotation, self.now.rotation] + [t.rotation for t in targets])
         translations = np.stack([self.before.translation, self.now.translation] + [t.translation for t in targets])
-        r_prev, r_now, r_next = rotations[:-2], rotations[1:-1], rotations[2:]
-        t_prev, t_now, t_next = translations[:-2], translations[1:-1], translations[2:]
-        inv = np.ascontiguousarray(r_next.transpose(0, 2, 1))
-        d_lin = 1.0 - damping_scale(inertia.linear_drag, stiffness_frequency, h)
-        d_ang = 1.0 - damping_scale(inertia.angular_drag, stiffness_frequency, h)
-        i_lin, i_ang = inertia.linear_inertia, inertia.angular_inertia
-        q = i_ang * (inv @ r_prev) + (1.0 - i_ang) * IDENTITY
-        d_n, d_n1 = r_now - r_prev, r_next - r_now
-        dt_n, dt_n1 = t_now - t_prev, t_next - t_now
-        k = inv @ (i_ang * (d_n - d_n1) - d_ang * d_n1)
-        b = (inv @ (i_lin * (dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)[:, :, None])[:, :, 0]
-        scale = np.asarray(scales, np.float64)[:, None, None]
-        terms = FrameTerms(
-            m_cur=np.ascontiguousarray(scale * q + k, dtype),
-            m_prev=np.ascontiguousarray(-scale * q, dtype),
-            bias=np.ascontiguousarray(b, dtype),
-            motion_matrix=np.ascontiguousarray(inv @ d_n1, np.float32),
-            motion_offset=np.ascontiguousarray((inv @ dt_n1[:, :, None])[:, :, 0], np.float32),
-            to_local=inv,
-            poses=[self.now] + list(targets),
-        )
-        return terms
+        motion = _frame_motion(rotations, translations, gravity, h, inertia, stiffness_frequency)
+        return _frame_terms(motion, scales, dtype, [self.now] + list(targets), rotations[1:], translations[1:])
 
     @property
     def moving(self) -> bool:
         return not (
             np.array_equal(self.before.rotation, self.now.rotation)
             and np.array_equal(self.before.translation, self.now.translation)
+        )
+
+
+def _frame_motion(rotations, translations, gravity, h, inertia: FrameInertia, stiffness_frequency: float) -> tuple:
+    """What the terms of the iterations ending at poses 2.. of (n,3,3) ``rotations`` and (n,3)
+    ``translations`` owe to the frame's motion alone (not to the velocity scale): q and k
+    (n-2,3,3) and b (n-2,3) in float64, the motion matrix (n-2,3,3) and offset (n-2,3) in
+    float32, and R^T (n-2,3,3). Row by row, so a row is the same whatever rows go with it."""
+    r_prev, r_now, r_next = rotations[:-2], rotations[1:-1], rotations[2:]
+    t_prev, t_now, t_next = translations[:-2], translations[1:-1], translations[2:]
+    inv = np.ascontiguousarray(r_next.transpose(0, 2, 1))
+    d_lin = 1.0 - damping_scale(inertia.linear_drag, stiffness_frequency, h)
+    d_ang = 1.0 - damping_scale(inertia.angular_drag, stiffness_frequency, h)
+    i_lin, i_ang = inertia.linear_inertia, inertia.angular_inertia
+    q = i_ang * (inv @ r_prev) + (1.0 - i_ang) * IDENTITY
+    d_n, d_n1 = r_now - r_prev, r_next - r_now
+    dt_n, dt_n1 = t_now - t_prev, t_next - t_now
+    k = inv @ (i_ang * (d_n - d_n1) - d_ang * d_n1)
+    b = (inv @ (i_lin * (dt_n - dt_n1) - d_lin * dt_n1 + gravity * h * h)[:, :, None])[:, :, 0]
+    motion_matrix = np.ascontiguousarray(inv @ d_n1, np.float32)
+    motion_offset = np.ascontiguousarray((inv @ dt_n1[:, :, None])[:, :, 0], np.float32)
+    return q, k, b, motion_matrix, motion_offset, inv
+
+
+def _frame_terms(motion: tuple, scales, dtype, poses: list[Pose], rotations, translations) -> FrameTerms:
+    """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales."""
+    q, k, b, motion_matrix, motion_offset, inv = motion
+    scale = np.asarray(scales, np.float64)[:, None, None]
+    return FrameTerms(
+        m_cur=np.ascontiguousarray(scale * q + k, dtype),
+        m_prev=np.ascontiguousarray(-scale * q, dtype),
+        bias=np.ascontiguousarray(b, dtype),
+        motion_matrix=motion_matrix,
+        motion_offset=motion_offset,
+        to_local=inv,
+        poses=poses,
+        rotations=rotations,
+        translations=translations,
+    )
+
+
+class FrameMotionAhead:
+    """The frame motion of many iterations computed at once: ``chain`` is the pose history
+    (P_{n-1}, P_n) followed by the poses at the ends of the next iterations, frames of them
+    (a track's planned poses). ``terms`` gives a frame's terms from these arrays when its
+    history and targets are the chain's very Pose objects, at the same ``h``: the same bits
+    as ``FrameHistory.advance_many``, which computes the same rows one frame at a time."""
+
+    def __init__(self, chain: list[Pose], gravity, h: float, inertia: FrameInertia, stiffness_frequency: float):
+        self.chain = chain
+        self.h = h
+        self._position = {id(pose): index for index, pose in enumerate(chain)}
+        self.rotations = np.stack([pose.rotation for pose in chain])
+        self.translations = np.stack([pose.translation for pose in chain])
+        self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
+
+    def terms(self, history: FrameHistory, targets: list[Pose], scales, h: float, dtype) -> FrameTerms | None:
+        """The terms of the frame from ``history`` to ``targets``; None when they are not
+        this chain's (another path, a teleport, the chain's end) or ``h`` differs."""
+        chain, k = self.chain, len(targets)
+        j = self._position.get(id(history.before))
+        if h != self.h or j is None or j + 2 + k > len(chain) or chain[j] is not history.before:
+            return None
+        if chain[j + 1] is not history.now or any(chain[j + 2 + i] is not target for i, target in enumerate(targets)):
+            return None
+        rows = slice(j, j + k)
+        poses = slice(j + 1, j + 2 + k)
+        return _frame_terms(
+            tuple(array[rows] for array in self.motion), scales, dtype, chain[poses], self.rotations[poses],
+            self.translations[poses],
         )

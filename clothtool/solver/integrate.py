@@ -29,8 +29,12 @@ class IntegrateStage(Stage):
         # what holds the cloth does not change during a bake
         self.free = self._free_cloth()
         self.mean = np.zeros(3, np.float64)  # integrate_free's mean displacement
+        self._scales_of, self._h_of = None, None  # what begin_frame's values were computed from
 
     def begin_frame(self, plan: FramePlan) -> None:
+        if self.solver.frame_scales is self._scales_of and plan.h == self._h_of:
+            return  # the solver's scales and h as last frame: the same values
+        self._scales_of, self._h_of = self.solver.frame_scales, plan.h
         self.real = self.solver.state.cur.dtype.type  # float32, or float64 for references
         self.gravity_bias = (self.solver.gravity * plan.h * plan.h).astype(self.real)
         self.scales = stacked(self.solver.frame_scales, self.real)  # per iteration, for integrate_linear

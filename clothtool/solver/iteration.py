@@ -19,6 +19,11 @@ class FramePlan:
     exponent: float  # stiffness_frequency * h: stiffness-frequency steps per iteration
     end_time: float | None = None  # seconds at the frame's end, exactly (default time + frame_dt)
 
+    @staticmethod
+    def iterations_for(frame_dt: float, frequency: float) -> int:
+        """Iterations of a frame of ``frame_dt`` seconds at ``frequency`` Hz (at least one)."""
+        return max(1, int(frame_dt * frequency + 0.5))
+
     @property
     def end(self) -> float:
         """Seconds at the frame's end."""

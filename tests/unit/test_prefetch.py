@@ -1,0 +1,209 @@
+"""Sampling ahead: colliders evaluated for a bake's frame times together, and a cloth's track
+path sampled at all of a bake's iteration ends at once, give each time the same bits as
+evaluating that time alone, and closed-form values."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from clothtool.bake import _iteration_ends, _track_path
+from clothtool.scene.scene import load_scene
+from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
+from clothtool.solver import frame as frame_module
+from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose
+from clothtool.solver.iteration import FramePlan
+from tests.conftest import EXAMPLES
+
+SCENE = f"""
+[scene]
+fps = 10.0
+frames = [0, 10]
+[cloth.c]
+mesh = "{(EXAMPLES / 'cape' / 'cape.obj').as_posix()}"
+cook = {{ pin_attr = "color_r" }}
+track = "turn"
+[track.turn]
+interpolation = "cubic"
+keys = [
+  {{ time = 0, translate = [0, 0, 0] }},
+  {{ time = 3, translate = [1, 0.5, 0], rotate_euler = [30, 10, 0], scale = 1.5 }},
+  {{ time = 7, translate = [2, 0, 1], rotate_euler = [-20, 60, 5], scale = 0.5 }},
+  {{ time = 10, translate = [3, 1, 0], rotate_euler = [0, 90, 0], scale = 1 }},
+]
+[track.slide]
+keys = [ {{ time = 0, translate = [0, 0, 0] }}, {{ time = 10, translate = [0, 2, 0], scale = 2 }} ]
+[collider.ball]
+kind = "sphere"
+center = [1, 0, 0]
+radius = 0.5
+track = "slide"
+[collider.leg]
+kind = "capsule"
+start = [0, 0, 0]
+end = [0, -1, 0]
+radii = [0.2, 0.1]
+track = "turn"
+[collider.floor]
+kind = "plane"
+point = [0, -1, 0]
+track = "turn"
+[collider.box]
+kind = "convex"
+box = {{ center = [0, 0, 0], size = [2, 1, 2] }}
+track = "turn"
+[collider.tri]
+kind = "mesh"
+mesh = "tri.obj"
+track = "turn"
+"""
+
+
+@pytest.fixture
+def scene(tmp_path: Path):
+    (tmp_path / "tri.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 3 2\n")
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE)
+    return load_scene(path)
+
+
+def _fields(arrays) -> dict:
+    return {field.name: getattr(arrays, field.name) for field in dataclasses.fields(arrays)}
+
+
+def test_prefetched_colliders_are_the_bits_of_one_time_alone(scene):
+    times = [scene.frame_time(frame) for frame in range(scene.start_frame, scene.end_frame + 1)]
+    alone = [_fields(scene.colliders.at(t)) for t in times]  # nothing prefetched: one time each
+    scene.colliders.prefetch(times)
+    for t, expected in zip(times, alone):
+        got = _fields(scene.colliders.at(t))
+        for name, array in expected.items():
+            assert got[name].dtype == array.dtype and got[name].shape == array.shape, name
+            assert np.array_equal(got[name], array, equal_nan=name.endswith("friction")), (t, name)
+    # a time between the prefetched ones is evaluated when asked: the ball 55% along its slide
+    np.testing.assert_allclose(scene.colliders.at(0.55).sphere_center[0], [1.55, 1.1, 0.0], rtol=1e-6)
+
+
+def test_prefetched_colliders_match_closed_forms(scene):
+    scene.colliders.prefetch([0.0, 0.5, 1.0])
+    middle = scene.colliders.at(0.5)
+    # the ball slides up 2 units over the scene and doubles in scale: half way, 1 up, scale 1.5
+    np.testing.assert_allclose(middle.sphere_center[0], [1.5, 1.0, 0.0], rtol=1e-6)
+    assert middle.sphere_radius[0] == pytest.approx(0.75)
+    # at 1.0 s (frame 10) the turn track is at its last key
+    end = scene.colliders.at(1.0)
+    rotation = quat_to_matrix(euler_xyz_to_quat([0, 90, 0]))
+    np.testing.assert_allclose(end.sphere_center[2], rotation @ [0, -1, 0] + [3, 1, 0], atol=1e-6)
+    # the floor turned with the track: its normal is the rotated +Y
+    np.testing.assert_allclose(end.plane[0, :3], rotation @ [0, 1, 0], atol=1e-6)
+    np.testing.assert_allclose(end.mesh_points, np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1]]) @ rotation.T + [3, 1, 0],
+                               atol=1e-6)
+    assert middle.mesh_triangles.tolist() == [[0, 2, 1]] and middle.convex_plane_offsets.tolist() == [0, 1, 7]
+
+
+def test_track_path_planned_times_are_the_bits_of_one_time_alone(scene):
+    track = scene.cloths[0].track
+    planned = _iteration_ends(scene)
+    path, alone = _track_path(track, planned), _track_path(track)
+    # iteration ends as the solver plans them: the last of each frame ends on the frame's time
+    iterations = FramePlan.iterations_for(1.0 / scene.fps, scene.solver.frequency)
+    assert len(planned) == iterations * (scene.end_frame - scene.start_frame + scene.preroll)
+    assert planned[iterations - 1] == scene.frame_time(scene.start_frame - scene.preroll + 1)
+    frame_ends = planned[iterations:2 * iterations]
+    for got, expected in zip(path.poses(frame_ends), alone.poses(frame_ends)):
+        assert np.array_equal(got.rotation, expected.rotation) and np.array_equal(got.translation, expected.translation)
+    unplanned = path(0.123456)  # sampled when asked
+    np.testing.assert_array_equal(unplanned.translation, alone(0.123456).translation)
+
+
+def test_frame_path_samples_planned_times_once():
+    calls = []
+
+    def many(times):
+        calls.append(len(times))
+        return [Pose(np.eye(3), np.array([t, 0.0, 0.0])) for t in times]
+
+    path = FramePath(lambda t: many(np.array([t]))[0], many, planned=[0.1, 0.2, 0.3])
+    assert [p.translation[0] for p in path.poses([0.1, 0.2])] == [0.1, 0.2]
+    assert path(0.3).translation[0] == 0.3
+    assert calls == [3]  # the planned times from the first asked for, together, at the first request
+    assert path.poses([0.3, 0.4])[1].translation[0] == 0.4
+    assert calls == [3, 2]  # a time not planned: sampled with the others asked together
+
+
+def _turning_path(planned=()):
+    """A frame spinning about Z and moving along X with an acceleration (closed-form poses)."""
+
+    def at(t: float) -> Pose:
+        angle = 0.7 * t + 0.3 * t * t
+        c, s = np.cos(angle), np.sin(angle)
+        return Pose(np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]), np.array([t * t, 0.5 * t, 0.0]))
+
+    return FramePath(at, lambda times: [at(float(t)) for t in times], planned)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_frame_motion_ahead_gives_the_bits_of_advance_many(dtype):
+    h, k = 1.0 / 240.0, 10
+    inertia = FrameInertia(0.8, 0.6, 0.05, 0.1)
+    gravity = np.array([0.0, -9.81, 0.0])
+    ends = [h * (i + 1) for i in range(8 * k)]
+    path = _turning_path(ends)
+    targets = path.poses(ends[:k])
+    history = FrameHistory(path(-h))
+    history.now = path(0.0)
+    ahead = FrameMotionAhead([history.before, history.now] + path.following(ends[0], 5 * k), gravity, h, inertia, 90.0)
+    scales = np.linspace(0.9, 1.0, k)
+    for frame in range(5):
+        expected = history.advance_many(targets, scales, gravity, h, inertia, 90.0, dtype)
+        got = ahead.terms(history, targets, scales, h, dtype)
+        for name in ("m_cur", "m_prev", "bias", "motion_matrix", "motion_offset", "to_local", "rotations", "translations"):
+            a, b = getattr(got, name), getattr(expected, name)
+            assert a.dtype == b.dtype and np.array_equal(a, b), (frame, name)
+        assert all(p is q for p, q in zip(got.poses, expected.poses))
+        history.before, history.now = got.poses[-2:]
+        targets = path.poses(ends[(frame + 1) * k:(frame + 2) * k])
+    # past its chain, at another h, or from a history off the chain: None (advance_many then)
+    assert ahead.terms(history, targets, scales, h, dtype) is None
+    assert ahead.terms(FrameHistory(path(0.5)), path.poses(ends[:k]), scales, h, dtype) is None
+
+
+def test_frame_motion_ahead_matches_world_space_verlet():
+    """With full inertia, no drag and no damping, the local-frame step of a particle at rest in
+    the world is world-space Verlet: it stays where it is (module docstring of solver.frame)."""
+    h = 0.01
+    path = _turning_path([h * (i + 1) for i in range(20)])
+    history = FrameHistory(path(-h))
+    history.now = path(0.0)
+    ahead = FrameMotionAhead([history.before, history.now] + path.following(h, 20), np.zeros(3), h, FrameInertia(), 1.0)
+    terms = ahead.terms(history, path.poses([h * (i + 1) for i in range(4)]), np.ones(4), h, np.float64)
+    world = np.array([0.3, -0.2, 0.5])
+    before, now = history.before.to_local(world), history.now.to_local(world)
+    for i in range(4):
+        x = now + terms.m_cur[i] @ now + terms.m_prev[i] @ before + terms.bias[i]  # integrate_affine
+        np.testing.assert_allclose(terms.poses[i + 1].to_world(x), world, atol=1e-12)
+        before, now = now, x
+
+
+def test_frame_path_window_slides_and_keeps_the_poses_it_holds(monkeypatch):
+    monkeypatch.setattr(frame_module, "PLANNED_CHUNK", 8)
+    sampled = []
+    plain = _turning_path()
+
+    def many(times):
+        sampled.append(len(times))
+        return [plain(float(t)) for t in times]
+
+    planned = [0.1 * (i + 1) for i in range(30)]
+    path = FramePath(plain, many, planned)
+    first = path.poses(planned[:5])
+    assert sampled == [8]
+    following = path.following(planned[3], 10)  # 10 from the 4th: the window slides on by 5
+    assert sampled == [8, 5] and len(following) == 10
+    assert following[0] is first[3] and following[1] is first[4]  # kept, not sampled again
+    assert path.poses(planned[3:5]) == [following[0], following[1]]
+    assert len(path.following(planned[25], 10)) == 5  # fewer at the end of the planned times
+    np.testing.assert_array_equal(path(planned[29]).translation, plain(planned[29]).translation)
