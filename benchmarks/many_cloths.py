@@ -25,8 +25,8 @@ import numpy as np
 from clothtool.bake import BakeOptions, bake
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
-from clothtool.scene.scene import load_scene
 
 ROWS = ((64, 1), (16, 16), (32, 4))  # (sheet size N, sheets)
 SCENE = """

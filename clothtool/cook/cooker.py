@@ -20,7 +20,6 @@ from clothtool.errors import MeshError
 from clothtool.fabric import Fabric, PhaseType
 from clothtool.mesh import topology
 from clothtool.mesh.clothmesh import ClothMesh
-from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.prepare import bounding_box_diagonal, prepare_mesh
 
 UP_VECTORS = {"Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}

@@ -10,9 +10,9 @@ import pytest
 from clothtool.bake import BakeOptions, bake, make_solvers
 from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.io.fabric_file import write_fabric
+from clothtool.loading import load_scene
 from clothtool.mesh.shapes import grid
 from clothtool.profile import StageProfiler
-from clothtool.scene.scene import load_scene
 from clothtool.solver.cloth import ClothSolver
 from clothtool.solver.merge import GroupMember, merged_model
 

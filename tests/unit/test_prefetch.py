@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from clothtool.bake import _iteration_ends, _track_path
-from clothtool.scene.scene import load_scene
+from clothtool.loading import load_scene
 from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver import frame as frame_module
 from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose

@@ -13,8 +13,8 @@ import pytest
 
 from clothtool.cook import tiles
 from clothtool.cook.cooker import CookOptions, cook_fabric
-from clothtool.mesh.coloring import TripletScheduler
 from clothtool.fabric import PhaseType, conflicting_set
+from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.shapes import grid
 from clothtool.solver.fabric_layers import phase_layers, phase_ranges
 from clothtool.summary import fabric_summary
