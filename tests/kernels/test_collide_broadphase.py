@@ -206,3 +206,29 @@ def test_far_tests_match_closed_forms():
     assert capsules_far(*point, room - 2e-3, capsule, True)
     assert not capsules_far(*point, room + 1e-6, capsule, True)
     assert capsules_far(*point, room + 1e-6, capsule, False)  # the end pose alone is farther
+
+
+def test_cull_kernels_match_reference():
+    """Each broad-phase kernel against tests/reference/collide_cull.py on random balls."""
+    from clothtool.solver.kernels.collide_cull import convexes_far, mesh_far, run_end, triangle_ball
+    from tests.reference import collide_cull as ref
+
+    rng = np.random.default_rng(3)
+    shapes, mesh = shapes_of(rng, np.float32, True)
+    frame = moving_frame()
+    virtual = np.array([[0, 1, 2, 0], [0, 1, 2, 1], [3, 4, 5, 0], [3, 4, 5, 1], [3, 4, 5, 2]], np.int32)
+    assert [run_end(virtual, r) for r in (0, 1, 2, 4)] == [ref.run_end(virtual, r) for r in (0, 1, 2, 4)] == [2, 2, 5, 5]
+    cur, prev = rng.normal(0, 0.3, (6, 4)).astype(np.float32), rng.normal(0, 0.3, (6, 4)).astype(np.float32)
+    np.testing.assert_allclose(triangle_ball(cur, prev, 0, 1, 2), ref.triangle_ball(cur, prev, 0, 1, 2), rtol=1e-12)
+    verdicts = np.zeros((4, 2), int)
+    for _ in range(300):
+        c, radius = rng.uniform(-0.7, 0.7, 3), float(rng.uniform(0.0, 0.15))
+        for k, (got, want) in enumerate([
+            (spheres_far(*c, radius, shapes[0], True), ref.spheres_far(*c, radius, shapes[0], True)),
+            (capsules_far(*c, radius, shapes[1], True), ref.capsules_far(*c, radius, shapes[1], True)),
+            (convexes_far(*c, radius, *shapes[2:]), ref.convexes_far(*c, radius, *shapes[2:])),
+            (mesh_far(*c, radius, mesh[1], mesh[4], frame), ref.mesh_far(*c, radius, mesh[1], mesh[4], frame)),
+        ]):
+            assert got == want, (k, c, radius)
+            verdicts[k, int(got)] += 1
+    assert (verdicts >= 5).all(), verdicts  # both verdicts for every kind
