@@ -38,6 +38,15 @@ import numba
 import numpy as np
 
 from clothtool._jit import kernel, serial_and_parallel
+from clothtool.solver.kernels.collide_cull import (
+    MIN_RUN,
+    capsules_far,
+    convexes_far,
+    mesh_far,
+    run_end,
+    spheres_far,
+    triangle_ball,
+)
 from clothtool.solver.kernels.collide_mesh import mesh_contact
 from clothtool.solver.kernels.collide_shapes import (
     capsule_at,
@@ -402,76 +411,104 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
         x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
         a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
         order, each seeing the corrections before it; the fabric orders them in conflict-free
-        batches, so this equals solving each batch at once."""
+        batches, so this equals solving each batch at once. A run of rows of one triangle (the
+        face points) whose bounding ball is beyond every collider's reach is skipped whole
+        (clothtool.solver.kernels.collide_cull): its rows would get no contact and no move."""
         zero = np.float32(0.0)
         one = np.float32(1.0)
-        for r in range(virtual.shape[0]):
-            a = virtual[r, 0]
-            b = virtual[r, 1]
-            c = virtual[r, 2]
-            wa = weights[virtual[r, 3], 0]
-            wb = weights[virtual[r, 3], 1]
-            wc = weights[virtual[r, 3], 2]
-            ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
-            mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
-            mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
-            norm = ma * ma + mb * mb + mc * mc
-            if norm <= zero:
-                continue
-            px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
-            py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
-            pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
-            qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
-            qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
-            qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
-            # the point's own continuous move (to where it hit, on the side it came from) is part
-            # of its correction, shared out like the push-out. The variant for the collider kinds
-            # present: closure constants, so numba prunes the branches not taken before typing
-            if with_meshes:
+        sphere_data, capsule_data, planes, offsets, convex_data = shapes
+        cell_start = mesh[1]
+        spheres = sphere_data.shape[0] > 0
+        capsules = capsule_data.shape[0] > 0
+        swept = continuous and (spheres or capsules)
+        start = 0
+        while start < virtual.shape[0]:
+            # the broad phase (collide_cull): a run of rows of one triangle far from every
+            # collider would get no contact and no move, row by row; it is skipped whole
+            end = run_end(virtual, start)
+            if end - start >= MIN_RUN:
+                ox, oy, oz, radius = triangle_ball(cur, prev, virtual[start, 0], virtual[start, 1], virtual[start, 2])
+                far = np.isfinite(ox + oy + oz + radius)
+                if far and spheres:
+                    far = spheres_far(ox, oy, oz, radius, sphere_data, with_continuous and swept)
+                if far and capsules:
+                    far = capsules_far(ox, oy, oz, radius, capsule_data, with_continuous and swept)
                 if with_convexes:
-                    if with_continuous:
-                        result = point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                    else:
-                        result = _with_both(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                elif with_continuous:
-                    result = _with_meshes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                else:
-                    result = _with_meshes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-            elif with_convexes:
-                if with_continuous:
-                    result = _with_convexes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                else:
-                    result = _with_convexes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-            elif with_continuous:
-                result = _spheres_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-            else:
-                result = _spheres_only(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-            count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = result
-            if count == 0 and mx == zero and my == zero and mz == zero:
-                continue
-            cx = mx
-            cy = my
-            cz = mz
-            scale = one
-            if count > 0:
-                fx, fy, fz = friction_correction(
-                    px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
-                )
-                cx += dx + fx
-                cy += dy + fy
-                cz += dz + fz
-            if count > 0 and mass_scale > 0.0:
-                square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
-                scale = one / (one + mass_scale * square)
-            for particle, m in ((a, ma), (b, mb), (c, mc)):
-                if m == zero:
+                    if far and offsets.shape[0] > 1:
+                        far = convexes_far(ox, oy, oz, radius, planes, offsets, convex_data)
+                if with_meshes:
+                    if far and mesh[0].shape[0] > 0:
+                        far = mesh_far(ox, oy, oz, radius, cell_start, mesh[4], frame)
+                if far:
+                    start = end
                     continue
-                share = m / norm
-                cur[particle, 0] += cx * share
-                cur[particle, 1] += cy * share
-                cur[particle, 2] += cz * share
-                cur[particle, 3] *= one + (scale - one) * m
-
+            for r in range(start, end):
+                a = virtual[r, 0]
+                b = virtual[r, 1]
+                c = virtual[r, 2]
+                wa = weights[virtual[r, 3], 0]
+                wb = weights[virtual[r, 3], 1]
+                wc = weights[virtual[r, 3], 2]
+                ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
+                mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
+                mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
+                norm = ma * ma + mb * mb + mc * mc
+                if norm <= zero:
+                    continue
+                px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
+                py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
+                pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
+                qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
+                qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
+                qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
+                # the point's own continuous move (to where it hit, on the side it came from) is part
+                # of its correction, shared out like the push-out. The variant for the collider kinds
+                # present: closure constants, so numba prunes the branches not taken before typing
+                if with_meshes:
+                    if with_convexes:
+                        if with_continuous:
+                            result = point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                        else:
+                            result = _with_both(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                    elif with_continuous:
+                        result = _with_meshes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                    else:
+                        result = _with_meshes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                elif with_convexes:
+                    if with_continuous:
+                        result = _with_convexes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                    else:
+                        result = _with_convexes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                elif with_continuous:
+                    result = _spheres_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                else:
+                    result = _spheres_only(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = result
+                if count == 0 and mx == zero and my == zero and mz == zero:
+                    continue
+                cx = mx
+                cy = my
+                cz = mz
+                scale = one
+                if count > 0:
+                    fx, fy, fz = friction_correction(
+                        px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
+                    )
+                    cx += dx + fx
+                    cy += dy + fy
+                    cz += dz + fz
+                if count > 0 and mass_scale > 0.0:
+                    square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
+                    scale = one / (one + mass_scale * square)
+                for particle, m in ((a, ma), (b, mb), (c, mc)):
+                    if m == zero:
+                        continue
+                    share = m / norm
+                    cur[particle, 0] += cx * share
+                    cur[particle, 1] += cy * share
+                    cur[particle, 2] += cz * share
+                    cur[particle, 3] *= one + (scale - one) * m
+            start = end
 
     return collide_virtual
 
