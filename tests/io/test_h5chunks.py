@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import shutil
+import struct
 import subprocess
 import zlib
 
@@ -25,7 +26,42 @@ from clothtool.io.hdf5_files import create_hdf5
 def test_shuffle_groups_each_byte_of_the_elements():
     # Two float32 elements, bytes a0 a1 a2 a3 b0 b1 b2 b3 -> a0 b0 a1 b1 a2 b2 a3 b3 (HDF5's shuffle).
     array = np.frombuffer(bytes(range(8)), np.float32)
-    assert shuffle(array) == bytes([0, 4, 1, 5, 2, 6, 3, 7])
+    assert shuffle(array).tobytes() == bytes([0, 4, 1, 5, 2, 6, 3, 7])
+
+
+def test_shuffle_matches_a_numpy_transpose_of_the_element_bytes():
+    points = np.random.default_rng(3).normal(size=(1001, 3)).astype(np.float32)
+    planes = shuffle(points)
+    assert planes.shape == (4, 3003)
+    np.testing.assert_array_equal(planes, points.view(np.uint8).reshape(-1, 4).T)
+
+
+def stream_blocks(stream: bytes) -> list[int]:
+    """The BTYPE of each deflate block of a zlib stream whose stored blocks come first."""
+    assert stream[:2] == b"\x78\x01" and int.from_bytes(stream[:2], "big") % 31 == 0
+    types, at = [], 2
+    while stream[at] & 0b111 == 0:  # stored, not final: LEN and NLEN then the bytes
+        length, nlength = struct.unpack("<HH", stream[at + 1 : at + 5])
+        assert length ^ nlength == 0xFFFF
+        types.append(0)
+        at += 5 + length
+    types.append((stream[at] >> 1) & 0b11)  # the deflated plane's first block
+    return types
+
+
+@pytest.mark.parametrize("points", [1, 5, 16384, 21846, 40000])
+def test_mantissa_planes_are_stored_and_the_exponent_plane_deflated(points):
+    """Planes 0-2 go as stored blocks of at most 65535 bytes, plane 3 through deflate; the
+    stream inflates (zlib checks the Adler-32) to the shuffled bytes at every size, including
+    plane lengths on and across the stored-block limit."""
+    array = np.random.default_rng(points).normal(size=(points, 3)).astype(np.float32)
+    stream = encode_chunk(array, "gzip")
+    assert zlib.decompress(stream) == array.view(np.uint8).reshape(-1, 4).T.tobytes()
+    stored_bytes = 3 * array.size
+    types = stream_blocks(stream)
+    assert types[:-1] == [0] * -(-stored_bytes // 65535) and types[-1] in (1, 2)
+    # The stored part is the three low planes as they are; the exponent plane shrinks.
+    assert len(stream) < stored_bytes + array.size + 5 * len(types) + 6 + 16
 
 
 def h5py_filtered_chunk(tmp_path, array: np.ndarray, compression: str) -> bytes:
