@@ -21,6 +21,7 @@ block), the Adler-32 of the whole shuffled chunk. The same input always gives th
 from __future__ import annotations
 
 import struct
+import sys
 
 import numpy as np
 from isal import isal_zlib
@@ -37,12 +38,18 @@ _STORED_BLOCK = 65535  # the most bytes one stored block holds
 def shuffle(array: np.ndarray) -> np.ndarray:
     """HDF5's shuffle filter: u8 (itemsize, n), row k holding byte k of each of the n elements
     (its bytes are the filter's output). A copy: the caller may change ``array`` next."""
-    from clothtool.io.shuffle_kernel import shuffle_bytes
-
     array = np.ascontiguousarray(array)
-    planes = np.empty((array.dtype.itemsize, array.size), np.uint8)
-    shuffle_bytes(array.reshape(-1).view(np.uint8), planes)
+    if array.dtype.itemsize != 4 or not _little_endian(array.dtype):  # not float32 points: numpy's transpose
+        return np.ascontiguousarray(array.reshape(-1).view(np.uint8).reshape(-1, array.dtype.itemsize).T)
+    from clothtool.io.shuffle_kernel import shuffle_words
+
+    planes = np.empty((4, array.size), np.uint8)
+    shuffle_words(array.reshape(-1).view(np.uint32), planes)
     return planes
+
+
+def _little_endian(dtype: np.dtype) -> bool:
+    return dtype.byteorder == "<" or (dtype.byteorder in "=|" and sys.byteorder == "little")
 
 
 def snapshot(array: np.ndarray, compression: str):

@@ -29,11 +29,14 @@ def test_shuffle_groups_each_byte_of_the_elements():
     assert shuffle(array).tobytes() == bytes([0, 4, 1, 5, 2, 6, 3, 7])
 
 
-def test_shuffle_matches_a_numpy_transpose_of_the_element_bytes():
-    points = np.random.default_rng(3).normal(size=(1001, 3)).astype(np.float32)
+@pytest.mark.parametrize("dtype", ["<f4", ">f4", "<f8", "<i2"])
+def test_shuffle_matches_a_numpy_transpose_of_the_element_bytes(dtype):
+    """float32 through the compiled loop, other element sizes and byte orders through numpy."""
+    points = np.random.default_rng(3).normal(size=(1001, 3)).astype(dtype)
+    size = points.dtype.itemsize
     planes = shuffle(points)
-    assert planes.shape == (4, 3003)
-    np.testing.assert_array_equal(planes, points.view(np.uint8).reshape(-1, 4).T)
+    assert planes.shape == (size, 3003)
+    np.testing.assert_array_equal(planes, points.view(np.uint8).reshape(-1, size).T)
 
 
 def stream_blocks(stream: bytes) -> list[int]:
