@@ -7,15 +7,18 @@ with ``write_direct_chunk`` and filter mask 0 ("every declared filter applied"),
 reader inflates them through its own shuffle+deflate filters.
 
 The shuffle puts byte k of every float32 together, k = 0..3 (a compiled loop). Only the last
-plane, the sign and exponent bits, is deflated (ISA-L via ``isal``, releasing the GIL, on a
-worker thread): the three mantissa planes of a moving cloth are noise that deflate shrinks by
-1-3% (measured on the bundled skirt) at 20x the cost of the exponent plane, so they go into
-deflate's "stored" blocks (RFC 1951 3.2.4: a length and the bytes as they are). The chunk is
-one zlib stream (RFC 1950): header, stored blocks, the deflated exponent plane (its final
-block), the Adler-32 of the whole shuffled chunk. The same input always gives the same bytes.
+plane, the sign and exponent bits, is deflated (ISA-L via ``isal``): the three mantissa planes
+of a moving cloth are noise that deflate shrinks by 0-3% (the bundled skirt's points and
+velocities) at 20x the cost of the exponent plane, so they go into deflate's "stored" blocks
+(RFC 1951 3.2.4: a length and the bytes as they are). The chunk is one zlib stream (RFC 1950):
+header, stored blocks, the deflated exponent plane (its final block), the Adler-32 of the whole
+shuffled chunk. The same input always gives the same bytes. A 128^2 cloth's chunk encodes in
+~0.05 ms (deflating all four planes took ~0.45 ms); a cloth with one coordinate constant
+(a flat sheet swinging in its plane) gives up more, its constant zeros being compressible
+(the benchmark sheet: 77% of the raw size instead of 60%).
 
-    data = encode_chunk(points, "gzip")                  # any thread: numpy + isal only
-    write_chunk(dataset, k, data)                         # the h5py thread
+    data = encode_chunk(points, "gzip")                  # numpy + isal only, no h5py
+    write_chunk(dataset, k, data)
 """
 
 from __future__ import annotations

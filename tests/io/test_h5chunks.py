@@ -1,5 +1,5 @@
 """Pre-compressed HDF5 chunks: the same data HDF5's own shuffle+deflate filters give, any
-reader inflates them, the same input gives the same bytes, and the worker thread's errors
+reader inflates them, the same input gives the same bytes, and the encoding's errors
 and the caller's reused arrays are handled."""
 
 from __future__ import annotations
@@ -137,7 +137,7 @@ def test_arrays_changed_after_write_frame_do_not_reach_the_file(out_dir):
         np.testing.assert_array_equal(cache.velocities("scarf", 4), expected[1][1])
 
 
-def test_a_worker_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
+def test_an_encoding_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
     header = make_header()
     deflate, calls = h5cache.deflate, []
 
@@ -160,7 +160,7 @@ def test_a_worker_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
         np.testing.assert_array_equal(cache.points("scarf", 4), make_frame(header, 4).points[1])
 
 
-def test_a_worker_error_on_the_last_frame_fails_the_commit(out_dir, monkeypatch):
+def test_an_encoding_error_on_the_last_frame_fails_the_commit(out_dir, monkeypatch):
     header = make_header(start=1, end=2)
     deflate = h5cache.deflate
     writer = H5CacheWriter(out_dir / "shot.h5", CacheOptions())
