@@ -42,7 +42,7 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
-from clothtool.io.h5chunks import ENCODED, deflate, snapshot, write_chunk
+from clothtool.io.h5chunks import ENCODED, SeriesChunks, deflate, snapshot, write_chunk
 from clothtool.io.h5safe import check_hdf5_file, check_layout, read_dataset
 from clothtool.io.hdf5_files import create_hdf5
 
@@ -73,6 +73,7 @@ class H5CacheWriter(StreamedCacheWriter):
         self._pending: _FrameJob | None = None  # the frame accepted but not yet written
         self._datasets: dict[str, object] = {}  # per-frame datasets by path, opened once
         self._frame_count_attr = None  # the root attribute rewritten every frame, opened once
+        self._series_writers: dict[str, SeriesChunks] = {}  # small per-frame series by path
         self._last_extents: list[np.ndarray] = []  # per cloth, of the last frame flushed
 
     def write_header(self, header: CacheHeader) -> None:
@@ -210,7 +211,7 @@ class H5CacheWriter(StreamedCacheWriter):
         for where, stored in job.chunks:
             self._store(self._dataset(where), k, stored, job.frame)
         for where, value in job.rows:
-            _append(self._dataset(where), k, value)
+            self._series_chunks(where).write(k, value)
         for name, shape, stored in job.colliders:
             g = f["collider"][name]
             if k == 0:  # created on the first frame: only deforming meshes get one
@@ -227,6 +228,13 @@ class H5CacheWriter(StreamedCacheWriter):
 
             self._frame_count_attr = h5a.open(self._file.id, b"frame_count")
         return self._frame_count_attr
+
+    def _series_chunks(self, where: str) -> SeriesChunks:
+        """The writer of the small per-frame series at ``where``, made once."""
+        series = self._series_writers.get(where)
+        if series is None:
+            series = self._series_writers[where] = SeriesChunks(self._file[where])
+        return series
 
     def _dataset(self, where: str):
         """The open dataset at ``where`` (looking a path up costs as much as writing a row)."""
@@ -256,6 +264,7 @@ class H5CacheWriter(StreamedCacheWriter):
                 pass  # failed: the file is closed untrusted below
         self._pending = None
         self._datasets.clear()
+        self._series_writers.clear()
         self._frame_count_attr = None
         f, self._file = self._file, None
         if f is None:

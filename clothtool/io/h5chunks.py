@@ -93,3 +93,32 @@ def write_chunk(dataset, k: int, data: bytes) -> None:
     dsid = dataset.id
     dsid.set_extent((k + 1,) + dsid.shape[1:])  # h5py's resize() costs 7x as much in checks
     dsid.write_direct_chunk((k,) + (0,) * (len(dsid.shape) - 1), data, filter_mask=0)
+
+
+class SeriesChunks:
+    """A small per-frame series (unfiltered chunks of several frames: extents, stats,
+    transforms) written a whole chunk at a time. The chunk being filled is kept here and
+    stored again with each new row; HDF5's own row write reads the chunk back from the file
+    first (clothtool's files have no chunk cache): 0.04 against 0.012 ms a row. Rows come
+    in order from 0; rows not yet written are 0, HDF5's fill value, as they are when HDF5
+    writes the row itself, so the file holds the same bytes."""
+
+    def __init__(self, dataset):
+        self._dsid = dataset.id
+        self._chunk = np.zeros(dataset.chunks, dataset.dtype)
+        self._first = 0  # the frame of the chunk's first row
+        self._next = 0  # the frame the next row must be
+
+    def write(self, k: int, value) -> None:
+        """Grow the dataset to ``k + 1`` frames and store frame ``k``'s row; raises OSError
+        where HDF5 fails (a full disk)."""
+        if k != self._next:
+            raise ValueError(f"series row {k} written out of order (the next row is {self._next})")
+        rows = self._chunk.shape[0]
+        if k == self._first + rows:  # the next chunk
+            self._first = k
+            self._chunk[...] = 0
+        self._chunk[k - self._first] = value
+        self._dsid.set_extent((k + 1,) + self._chunk.shape[1:])
+        self._dsid.write_direct_chunk((self._first,) + (0,) * (self._chunk.ndim - 1), self._chunk, filter_mask=0)
+        self._next = k + 1

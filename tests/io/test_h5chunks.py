@@ -19,7 +19,7 @@ from clothtool.errors import ClothtoolError
 from clothtool.io import h5cache
 from clothtool.io.cache import CacheOptions
 from clothtool.io.h5cache import H5CacheWriter, read_h5_cache
-from clothtool.io.h5chunks import encode_chunk, shuffle
+from clothtool.io.h5chunks import SeriesChunks, encode_chunk, shuffle
 from clothtool.io.hdf5_files import create_hdf5
 
 
@@ -173,3 +173,37 @@ def test_an_encoding_error_on_the_last_frame_fails_the_commit(out_dir, monkeypat
             monkeypatch.setattr(h5cache, "deflate", deflate)
             writer.commit()
     assert writer.kept == (out_dir / "shot.partial.h5", 1) and not (out_dir / "shot.h5").exists()
+
+
+@pytest.mark.parametrize(("dtype", "shape"), [(np.float32, (2, 3)), (np.float64, ()), (np.float64, (4, 4))])
+def test_series_chunks_store_what_hdf5s_row_writes_store(tmp_path, dtype, shape):
+    """Row by row over several 64-frame chunks (extents, stats, transforms): the same chunks,
+    bytes and values as HDF5 writing each row itself."""
+    rows = np.random.default_rng(2).normal(size=(150, *shape)).astype(dtype)
+    with create_hdf5(tmp_path / "series.h5") as f:
+        ours, theirs = (
+            f.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype, chunks=(64, *shape))
+            for name in ("ours", "theirs")
+        )
+        series = SeriesChunks(ours)
+        for k, row in enumerate(rows):
+            series.write(k, row)
+            theirs.resize(k + 1, axis=0)
+            theirs[k] = row
+            assert ours.shape == theirs.shape == (k + 1, *shape)
+        for index in range(3):  # chunks of frames 0, 64 and 128 (the last one partly filled)
+            assert ours.id.read_direct_chunk(ours.id.get_chunk_info(index).chunk_offset) == theirs.id.read_direct_chunk(
+                theirs.id.get_chunk_info(index).chunk_offset
+            )
+        np.testing.assert_array_equal(ours[...], rows)
+
+
+def test_series_chunks_refuse_rows_out_of_order(tmp_path):
+    with create_hdf5(tmp_path / "series.h5") as f:
+        series = SeriesChunks(f.create_dataset("s", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(4,)))
+        for k in range(5):
+            series.write(k, float(k))
+        for k in (9, 6, 4):
+            with pytest.raises(ValueError, match=rf"series row {k} written out of order \(the next row is 5\)"):
+                series.write(k, float(k))
+        assert f["s"].shape == (5,)
