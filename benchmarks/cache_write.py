@@ -9,8 +9,9 @@ grid, different every frame (crate files de-duplicate identical arrays).
 
 ``--bake N[,N...]`` instead bakes benchmarks/bake.py's N x N hanging cloth (with the default
 output attributes: points and velocities) into each format and prints the CPU ms per frame
-of the whole bake (simulation, stats and write, JIT excluded) and what each format adds to
-the ``null`` output's figure:
+of the whole bake (simulation, stats and write, JIT excluded; ``sys``: the part spent in the
+kernel, mostly file writes), the file's size, and what each format adds to the ``null``
+output's figure:
 
     python benchmarks/cache_write.py --bake 64,128 --frames 200 --runs 3
 """
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -124,13 +126,18 @@ def bake_one(config: str, n: int, frames: int, out_dir: Path) -> dict:
 
     def at_frame(done: int, total: int) -> None:
         if done == 2:  # timed from the end of the second frame: set-up and JIT warm-up excluded
-            clock["cpu"], clock["wall"] = time.process_time(), time.perf_counter()
+            clock["cpu"], clock["wall"], clock["sys"] = time.process_time(), time.perf_counter(), os.times().system
 
     bake_options = BakeOptions(compression=options.get("compression"), save_every=options.get("save_every"), progress=at_frame)
     stats = bake(load_scene(toml), path, bake_options)
     cpu, wall = time.process_time() - clock["cpu"], time.perf_counter() - clock["wall"]  # commit included
+    system = os.times().system - clock["sys"]  # the kernel's share of cpu (file writes), 10 ms ticks
     timed = stats.frames_simulated - 1
-    return {"config": config, "n": n, "frames": timed, "cpu_ms_per_frame": 1e3 * cpu / timed, "wall_ms_per_frame": 1e3 * wall / timed}
+    return {
+        "config": config, "n": n, "frames": timed, "cpu_ms_per_frame": 1e3 * cpu / timed,
+        "sys_ms_per_frame": 1e3 * system / timed, "wall_ms_per_frame": 1e3 * wall / timed,
+        "file_mb": 0 if suffix == "null" else Path(path).stat().st_size / 1e6,
+    }
 
 
 def measure_bakes(n: int, frames: int, runs: int, configs: list[str]) -> list[dict]:
@@ -147,7 +154,8 @@ def measure_bakes(n: int, frames: int, runs: int, configs: list[str]) -> list[di
             results[config].append(json.loads(out))
     rows = []
     for config in configs:
-        rows.append({**results[config][0], **{k: statistics.median(r[k] for r in results[config]) for k in ("cpu_ms_per_frame", "wall_ms_per_frame")}})
+        keys = ("cpu_ms_per_frame", "sys_ms_per_frame", "wall_ms_per_frame")
+        rows.append({**results[config][0], **{k: statistics.median(r[k] for r in results[config]) for k in keys}})
     null = next((r["cpu_ms_per_frame"] for r in rows if r["config"] == "null"), None)
     for row in rows:
         row["added"] = None if null is None else row["cpu_ms_per_frame"] - null
@@ -156,10 +164,13 @@ def measure_bakes(n: int, frames: int, runs: int, configs: list[str]) -> list[di
 
 
 def print_bake_table(rows: list[dict]) -> None:
-    print(f"{'format':<12} {'N':>5} {'frames':>6} {'cpu ms/f':>9} {'wall ms/f':>9} {'added ms/f':>10} {'added %':>8}")
+    print(f"{'format':<12} {'N':>5} {'frames':>6} {'cpu ms/f':>9} {'sys ms/f':>9} {'wall ms/f':>9} {'MB':>7} {'added ms/f':>10} {'added %':>8}")
     for r in rows:
         added = "" if r["added"] is None else f"{r['added']:>10.3f} {r['added_pct']:>7.1f}%"
-        print(f"{r['config']:<12} {r['n']:>5} {r['frames']:>6} {r['cpu_ms_per_frame']:>9.3f} {r['wall_ms_per_frame']:>9.3f} {added}")
+        print(
+            f"{r['config']:<12} {r['n']:>5} {r['frames']:>6} {r['cpu_ms_per_frame']:>9.3f} {r['sys_ms_per_frame']:>9.3f} "
+            f"{r['wall_ms_per_frame']:>9.3f} {r['file_mb']:>7.1f} {added}"
+        )
 
 
 def measure(config: str, points: int, frames: int, runs: int) -> dict:

@@ -1,11 +1,12 @@
 """Pre-compressed HDF5 chunks: the same data HDF5's own shuffle+deflate filters give, any
-reader inflates them, the same input gives the same bytes, and the worker thread's errors
+reader inflates them, the same input gives the same bytes, and the encoding's errors
 and the caller's reused arrays are handled."""
 
 from __future__ import annotations
 
 import hashlib
 import shutil
+import struct
 import subprocess
 import zlib
 
@@ -18,14 +19,52 @@ from clothtool.errors import ClothtoolError
 from clothtool.io import h5cache
 from clothtool.io.cache import CacheOptions
 from clothtool.io.h5cache import H5CacheWriter, read_h5_cache
-from clothtool.io.h5chunks import encode_chunk, shuffle
+from clothtool.io.h5chunks import SeriesChunks, encode_chunk, shuffle
 from clothtool.io.hdf5_files import create_hdf5
 
 
 def test_shuffle_groups_each_byte_of_the_elements():
     # Two float32 elements, bytes a0 a1 a2 a3 b0 b1 b2 b3 -> a0 b0 a1 b1 a2 b2 a3 b3 (HDF5's shuffle).
     array = np.frombuffer(bytes(range(8)), np.float32)
-    assert shuffle(array) == bytes([0, 4, 1, 5, 2, 6, 3, 7])
+    assert shuffle(array).tobytes() == bytes([0, 4, 1, 5, 2, 6, 3, 7])
+
+
+@pytest.mark.parametrize("dtype", ["<f4", ">f4", "<f8", "<i2"])
+def test_shuffle_matches_a_numpy_transpose_of_the_element_bytes(dtype):
+    """float32 through the compiled loop, other element sizes and byte orders through numpy."""
+    points = np.random.default_rng(3).normal(size=(1001, 3)).astype(dtype)
+    size = points.dtype.itemsize
+    planes = shuffle(points)
+    assert planes.shape == (size, 3003)
+    np.testing.assert_array_equal(planes, points.view(np.uint8).reshape(-1, size).T)
+
+
+def stream_blocks(stream: bytes) -> list[int]:
+    """The BTYPE of each deflate block of a zlib stream whose stored blocks come first."""
+    assert stream[:2] == b"\x78\x01" and int.from_bytes(stream[:2], "big") % 31 == 0
+    types, at = [], 2
+    while stream[at] & 0b111 == 0:  # stored, not final: LEN and NLEN then the bytes
+        length, nlength = struct.unpack("<HH", stream[at + 1 : at + 5])
+        assert length ^ nlength == 0xFFFF
+        types.append(0)
+        at += 5 + length
+    types.append((stream[at] >> 1) & 0b11)  # the deflated plane's first block
+    return types
+
+
+@pytest.mark.parametrize("points", [1, 5, 16384, 21846, 40000])
+def test_mantissa_planes_are_stored_and_the_exponent_plane_deflated(points):
+    """Planes 0-2 go as stored blocks of at most 65535 bytes, plane 3 through deflate; the
+    stream inflates (zlib checks the Adler-32) to the shuffled bytes at every size, including
+    plane lengths on and across the stored-block limit."""
+    array = np.random.default_rng(points).normal(size=(points, 3)).astype(np.float32)
+    stream = encode_chunk(array, "gzip")
+    assert zlib.decompress(stream) == array.view(np.uint8).reshape(-1, 4).T.tobytes()
+    stored_bytes = 3 * array.size
+    types = stream_blocks(stream)
+    assert types[:-1] == [0] * -(-stored_bytes // 65535) and types[-1] in (1, 2)
+    # The stored part is the three low planes as they are; the exponent plane shrinks.
+    assert len(stream) < stored_bytes + array.size + 5 * len(types) + 6 + 16
 
 
 def h5py_filtered_chunk(tmp_path, array: np.ndarray, compression: str) -> bytes:
@@ -98,7 +137,7 @@ def test_arrays_changed_after_write_frame_do_not_reach_the_file(out_dir):
         np.testing.assert_array_equal(cache.velocities("scarf", 4), expected[1][1])
 
 
-def test_a_worker_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
+def test_an_encoding_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
     header = make_header()
     deflate, calls = h5cache.deflate, []
 
@@ -121,7 +160,7 @@ def test_a_worker_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
         np.testing.assert_array_equal(cache.points("scarf", 4), make_frame(header, 4).points[1])
 
 
-def test_a_worker_error_on_the_last_frame_fails_the_commit(out_dir, monkeypatch):
+def test_an_encoding_error_on_the_last_frame_fails_the_commit(out_dir, monkeypatch):
     header = make_header(start=1, end=2)
     deflate = h5cache.deflate
     writer = H5CacheWriter(out_dir / "shot.h5", CacheOptions())
@@ -134,3 +173,37 @@ def test_a_worker_error_on_the_last_frame_fails_the_commit(out_dir, monkeypatch)
             monkeypatch.setattr(h5cache, "deflate", deflate)
             writer.commit()
     assert writer.kept == (out_dir / "shot.partial.h5", 1) and not (out_dir / "shot.h5").exists()
+
+
+@pytest.mark.parametrize(("dtype", "shape"), [(np.float32, (2, 3)), (np.float64, ()), (np.float64, (4, 4))])
+def test_series_chunks_store_what_hdf5s_row_writes_store(tmp_path, dtype, shape):
+    """Row by row over several 64-frame chunks (extents, stats, transforms): the same chunks,
+    bytes and values as HDF5 writing each row itself."""
+    rows = np.random.default_rng(2).normal(size=(150, *shape)).astype(dtype)
+    with create_hdf5(tmp_path / "series.h5") as f:
+        ours, theirs = (
+            f.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype, chunks=(64, *shape))
+            for name in ("ours", "theirs")
+        )
+        series = SeriesChunks(ours)
+        for k, row in enumerate(rows):
+            series.write(k, row)
+            theirs.resize(k + 1, axis=0)
+            theirs[k] = row
+            assert ours.shape == theirs.shape == (k + 1, *shape)
+        for index in range(3):  # chunks of frames 0, 64 and 128 (the last one partly filled)
+            assert ours.id.read_direct_chunk(ours.id.get_chunk_info(index).chunk_offset) == theirs.id.read_direct_chunk(
+                theirs.id.get_chunk_info(index).chunk_offset
+            )
+        np.testing.assert_array_equal(ours[...], rows)
+
+
+def test_series_chunks_refuse_rows_out_of_order(tmp_path):
+    with create_hdf5(tmp_path / "series.h5") as f:
+        series = SeriesChunks(f.create_dataset("s", shape=(0,), maxshape=(None,), dtype=np.float64, chunks=(4,)))
+        for k in range(5):
+            series.write(k, float(k))
+        for k in (9, 6, 4):
+            with pytest.raises(ValueError, match=rf"series row {k} written out of order \(the next row is 5\)"):
+                series.write(k, float(k))
+        assert f["s"].shape == (5,)
