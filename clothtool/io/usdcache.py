@@ -37,7 +37,6 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
-from clothtool.io.vt_arrays import vec3f_array
 
 __all__ = ["UsdCacheWriter", "UsdCacheReader", "read_usd_cache", "format_cache_summary"]
 
@@ -240,10 +239,11 @@ class UsdCacheWriter(UsdLayerWriter):
         layer = self._layer
         for i, paths in enumerate(self._cloth_paths):
             points = as_points(frame.points[i])
-            _sample(layer, paths["points"], time, vec3f_array(points), first)
-            _sample(layer, paths["extent"], time, vec3f_array(points_extent(points)), first)
+            # FromNumpy: one memcpy (1 ms per 100k points); building from a list costs 100x more.
+            _sample(layer, paths["points"], time, Vt.Vec3fArray.FromNumpy(points), first)
+            _sample(layer, paths["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(points)), first)
             if "velocities" in paths:
-                _sample(layer, paths["velocities"], time, vec3f_array(frame.velocities[i]), first)
+                _sample(layer, paths["velocities"], time, Vt.Vec3fArray.FromNumpy(as_points(frame.velocities[i])), first)
             for field, path in paths["stats"].items():
                 layer.SetTimeSample(path, time, float(frame.stats[i][field]))
 
@@ -253,8 +253,8 @@ class UsdCacheWriter(UsdLayerWriter):
             matrix = Gf.Matrix4d(np.asarray(frame.collider_xforms[i], np.float64).tolist())
             _sample(layer, paths["xform"], time, matrix, first)
             if i in moved:  # deforming mesh colliders only; a static one keeps its rest points
-                layer.SetTimeSample(paths["points"], time, vec3f_array(moved[i]))
-                layer.SetTimeSample(paths["extent"], time, vec3f_array(points_extent(moved[i])))
+                layer.SetTimeSample(paths["points"], time, Vt.Vec3fArray.FromNumpy(moved[i]))
+                layer.SetTimeSample(paths["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(moved[i])))
 
     def _erase_samples(self, time: float) -> None:
         layer = self._layer
