@@ -84,29 +84,58 @@ def _largest_set(set_offsets):
     return int(np.diff(np.asarray(set_offsets)).max(initial=0))
 
 
-def _measure_edges(cur, indices, first, lo, hi, length2, wa, wb):
-    """Returns (length2, wa, wb), float64 copies with lo..hi set to eps + |pb - pa|^2 and the
-    inverse masses of constraints first+lo .. first+hi (cur: the flat (n*4,) particle view)."""
+def _scratch_size(set_offsets, layer_group_offsets):
+    """Scratch rows the kernel needs: the largest set, or BLOCK rows per group of a layer of
+    tiles solved side by side, whichever is more."""
+    groups = np.diff(np.asarray(layer_group_offsets)).max(initial=0)
+    return max(_largest_set(set_offsets), int(groups) * 256)  # BLOCK
+
+
+def _measure_edges(cur, indices, first, count, at, length2, wa, wb):
+    """Returns (length2, wa, wb), float64 copies with scratch rows at .. at+count-1 set to
+    eps + |pb - pa|^2 and the inverse masses of constraints first .. first+count-1 (cur: the
+    flat (n*4,) particle view)."""
     rows = np.asarray(cur, np.float64).reshape(-1, 4)
     length2, wa, wb = (np.array(x, np.float64) for x in (length2, wa, wb))
-    pairs = np.asarray(indices)[first + lo : first + hi]
+    pairs = np.asarray(indices)[first : first + count]
     h = rows[pairs[:, 1], :3] - rows[pairs[:, 0], :3]
-    length2[lo:hi] = DISTANCE_EPSILON + np.einsum("ij,ij->i", h, h)
-    wa[lo:hi] = rows[pairs[:, 0], 3]
-    wb[lo:hi] = rows[pairs[:, 1], 3]
+    length2[at : at + count] = DISTANCE_EPSILON + np.einsum("ij,ij->i", h, h)
+    wa[at : at + count] = rows[pairs[:, 0], 3]
+    wb[at : at + count] = rows[pairs[:, 1], 3]
     return length2, wa, wb
 
 
-def _move_ends(cur, indices, first, lo, hi, fa, fb):
-    """Returns cur (flat float64 copy) with pa += h fa and pb -= h fb, h = pb - pa."""
+def _move_ends(cur, indices, first, count, at, fa, fb):
+    """Returns cur (flat float64 copy) with pa += h fa and pb -= h fb, h = pb - pa, for
+    constraints first .. first+count-1 and their factors at scratch rows at .. at+count-1."""
     flat = np.array(cur, np.float64)
     rows = flat.reshape(-1, 4)
-    pairs = np.asarray(indices)[first + lo : first + hi]
+    pairs = np.asarray(indices)[first : first + count]
     a, b = pairs[:, 0], pairs[:, 1]
     h = rows[b, :3] - rows[a, :3]
-    np.add.at(rows[:, :3], a, h * np.asarray(fa, np.float64)[lo:hi, None])
-    np.add.at(rows[:, :3], b, -h * np.asarray(fb, np.float64)[lo:hi, None])
+    np.add.at(rows[:, :3], a, h * np.asarray(fa, np.float64)[at : at + count, None])
+    np.add.at(rows[:, :3], b, -h * np.asarray(fb, np.float64)[at : at + count, None])
     return flat
+
+
+def _edge_block(flat, indices, rest, constraint_stiffness, params, p, first, count, at, length2, wa, wb):
+    """Returns flat (float64 copy) after NvCloth's update of constraints first .. first+count-1
+    of phase p (one conflict-free block: solved at once)."""
+    rows = np.array(flat, np.float64).reshape(-1, 4)
+    k, m, lo, hi = np.asarray(params, np.float64)[p]
+    span = slice(first, first + count)
+    _solve_set(np.asarray(indices)[span], np.asarray(rest, np.float64)[span],
+               np.asarray(constraint_stiffness, np.float64)[span], k, m, lo, hi, rows)
+    return rows.reshape(-1)
+
+
+def _xpbd_block(flat, indices, rest, alpha_tilde, params, p, first, count, at, length2, wa, wb):
+    """Returns flat (float64 copy) after the XPBD update of constraints first .. first+count-1."""
+    rows = np.array(flat, np.float64).reshape(-1, 4)
+    span = slice(first, first + count)
+    _solve_set(np.asarray(indices)[span], np.asarray(rest, np.float64)[span], 1.0, 1.0, 0.0, 0.0, 0.0, rows,
+               np.asarray(alpha_tilde, np.float64)[span])
+    return rows.reshape(-1)
 
 
 def _edge_slack(rest, length2):

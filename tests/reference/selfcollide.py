@@ -40,6 +40,11 @@ def _bucket(cx, cy, cz, mask):
     return h & np.int64(mask)
 
 
+def _rows_meet(a, b, mask):
+    """Whether the bucket pairs {a, a + 1} and {b, b + 1} (mod mask + 1) share a bucket."""
+    return bool({a, (a + 1) & mask} & {b, (b + 1) & mask})
+
+
 def build_grid(points, inv_cell, bucket_start, order, sorted_points, sorted_cell):
     """Returns (bucket_start (B+1,), order (m,), sorted_points (m,4), sorted_cell (m,3)): the
     points sorted by the bucket of their cell (stable: by index within a bucket) as a CSR
