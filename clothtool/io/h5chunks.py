@@ -70,9 +70,9 @@ def zlib_stream(planes: np.ndarray) -> bytes:
     """The zlib stream of ``planes``' bytes (u8 (itemsize, n), C order): every plane but the
     last as stored blocks, the last (the most significant byte of little-endian floats)
     deflated."""
-    flat = memoryview(planes.reshape(-1))
+    flat = planes.reshape(-1).data
     split = (planes.shape[0] - 1) * planes.shape[1]
-    parts = [_ZLIB_HEADER]
+    parts: list[bytes | memoryview] = [_ZLIB_HEADER]
     for start in range(0, split, _STORED_BLOCK):
         block = flat[start : min(start + _STORED_BLOCK, split)]
         # BFINAL 0, BTYPE 00 (stored), padded to the byte; then LEN and its complement NLEN.

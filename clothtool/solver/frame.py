@@ -88,7 +88,7 @@ class FramePath:
             rows = [self._row.get(t) for t in times]
             if None not in rows:
                 held = self._held
-                return [held[row] for row in rows]
+                return [held[row] for row in rows if row is not None]
         return self._sample(times)
 
     def following(self, time: float, count: int) -> list[Pose]:

@@ -28,12 +28,15 @@ merged solve.
 from __future__ import annotations
 
 import dataclasses
+from typing import cast
 
 import numpy as np
 
+from clothtool.fabric import Fabric
 from clothtool.solver.cloth import ClothSolver
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.model import ClothModel
+from clothtool.solver.tethers import TetherStage
 
 
 @dataclasses.dataclass(frozen=True)
@@ -111,7 +114,8 @@ def merged_model(models: list[ClothModel]) -> ClothModel:
     first = models[0]
     return ClothModel(
         name="+".join(m.name for m in models),
-        fabric=MergedFabric(np.concatenate([m.fabric.particle_area for m in models])),
+        # the group's stages read only the areas; each cloth's own model keeps its fabric
+        fabric=cast(Fabric, MergedFabric(np.concatenate([m.fabric.particle_area for m in models]))),
         material=first.material,
         rest_pos=np.concatenate([m.rest_pos for m in models]),
         inv_mass=np.concatenate([m.inv_mass for m in models]),
@@ -180,6 +184,7 @@ class GroupSolver(ClothSolver):
         if tethers is not None:  # NvCloth scales the stiffness by the cloth's particles per tether
             tethers.begin_frame(plan)
             merged = self.stages[self.stage_names.index("tethers")]
+            assert isinstance(merged, TetherStage) and isinstance(tethers, TetherStage)
             merged.stiffness, merged.scale = tethers.stiffness, tethers.scale
         return plan
 
@@ -231,6 +236,7 @@ class GroupMember:
         """The group's plan of the frame: planned by the first member, which the bake asks first."""
         if self.leader:
             self.group.current_plan = self.group.plan_frame(frame, time, frame_dt, end_time)
+        assert self.group.current_plan is not None, "the group's first cloth plans the frame"
         return self.group.current_plan
 
     def iteration(self, plan: FramePlan, index: int) -> Iteration:
