@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -150,11 +151,34 @@ class UsdLayerWriter(StreamedCacheWriter):
         self._save_every = int(options.save_every) if self._crate else 0
         self._layer = None
 
-    def _frame_written(self, frame: int) -> None:
-        """Count the frame; save a crate layer every ``save_every`` frames, so memory stays flat."""
-        self.frames_written += 1
+    def _write_whole_frame(self, frame: int, write: Callable[[float], None]) -> None:
+        """``write(time)`` puts the frame's samples into the layer (in one change block); then
+        the frame is counted, and a crate layer is saved every ``save_every`` frames, so memory
+        stays flat. Anything that stops it before the count (an error, or a signal landing
+        between two statements) erases the frame's samples: the count and the layer agree, and
+        a partial file holds whole frames only."""
+        before, time = self.frames_written, float(frame)
+        end = self._layer.endTimeCode
+        try:
+            with Sdf.ChangeBlock():
+                write(time)
+                self._layer.endTimeCode = time
+            self.frames_written = before + 1  # one store: a signal lands before or after it
+        except BaseException:
+            if self.frames_written == before:
+                self._erase_samples(time)
+                self._layer.endTimeCode = end
+            raise
         if self._save_every > 0 and self.frames_written % self._save_every == 0:
             self._save(f"writing frame {frame}")
+
+    def _erase_samples(self, time: float) -> None:
+        """Erase every time sample at ``time`` in the layer."""
+        layer, found = self._layer, []
+        layer.Traverse(Sdf.Path.absoluteRootPath, lambda path: found.append(path) if path.IsPropertyPath() else None)
+        for path in found:
+            if layer.QueryTimeSample(path, time) is not None:
+                layer.EraseTimeSample(path, time)
 
     def _save(self, doing: str) -> None:
         """Save the layer; after a failed save the file is never saved again.
@@ -219,21 +243,18 @@ class UsdCacheWriter(UsdLayerWriter):
         del stage
 
     def write_frame(self, frame: FrameData) -> None:
-        header, layer = self._check_next_frame(frame), self._layer
-        first, time = self.frames_written == 0, float(frame.frame)
+        header = self._check_next_frame(frame)
+        first = self.frames_written == 0
         moved = {}
         if self._collider_paths:  # checked before anything of the frame is written
             moved = deformed_collider_points(header, frame, None if first else self._deforming, self.path)
-        try:
-            with Sdf.ChangeBlock():
-                self._write_cloths(frame, time, first)
-                self._write_colliders(frame, time, first, moved)
-                layer.endTimeCode = time
-        except BaseException:
-            self._erase_samples(time)  # a partial file holds whole frames only
-            raise
+
+        def write(time: float) -> None:
+            self._write_cloths(frame, time, first)
+            self._write_colliders(frame, time, first, moved)
+
+        self._write_whole_frame(frame.frame, write)
         self._deforming = set(moved)
-        self._frame_written(frame.frame)
 
     def _write_cloths(self, frame: FrameData, time: float, first: bool) -> None:
         layer = self._layer
@@ -256,12 +277,6 @@ class UsdCacheWriter(UsdLayerWriter):
                 layer.SetTimeSample(paths["points"], time, Vt.Vec3fArray.FromNumpy(moved[i]))
                 layer.SetTimeSample(paths["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(moved[i])))
 
-    def _erase_samples(self, time: float) -> None:
-        layer = self._layer
-        for paths in self._cloth_paths + self._collider_paths:
-            for path in [p for key, p in paths.items() if key != "stats"] + list(paths.get("stats", {}).values()):
-                if layer.QueryTimeSample(path, time) is not None:
-                    layer.EraseTimeSample(path, time)
 
 class _FailedSave(Exception):
     """A failed ``Sdf.Layer.Save``, carrying USD's reason (e.g. "No space left on device")."""

@@ -78,19 +78,18 @@ class ShotLayerWriter(UsdLayerWriter):
 
     def write_frame(self, frame: FrameData) -> None:
         self._check_next_frame(frame)
-        time = float(frame.frame)
-        with Sdf.ChangeBlock():
-            for i, target in enumerate(self._targets):
-                world_to_local = np.linalg.inv(np.array(target["xformable"].ComputeLocalToWorldTransform(Usd.TimeCode(time)), np.float64))
-                world = np.asarray(frame.points[i], np.float64)[target["map"]]
-                local = as_points(world @ world_to_local[:3, :3] + world_to_local[3, :3])
-                self._layer.SetTimeSample(target["paths"]["points"], time, Vt.Vec3fArray.FromNumpy(local))
-                self._layer.SetTimeSample(target["paths"]["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(local)))
-                if "velocities" in target["paths"] and frame.velocities is not None:
-                    velocities = np.asarray(frame.velocities[i], np.float64)[target["map"]] @ world_to_local[:3, :3]
-                    self._layer.SetTimeSample(target["paths"]["velocities"], time, Vt.Vec3fArray.FromNumpy(as_points(velocities)))
-            self._layer.endTimeCode = time
-        self._frame_written(frame.frame)
+        self._write_whole_frame(frame.frame, lambda time: self._write_samples(frame, time))
+
+    def _write_samples(self, frame: FrameData, time: float) -> None:
+        for i, target in enumerate(self._targets):
+            world_to_local = np.linalg.inv(np.array(target["xformable"].ComputeLocalToWorldTransform(Usd.TimeCode(time)), np.float64))
+            world = np.asarray(frame.points[i], np.float64)[target["map"]]
+            local = as_points(world @ world_to_local[:3, :3] + world_to_local[3, :3])
+            self._layer.SetTimeSample(target["paths"]["points"], time, Vt.Vec3fArray.FromNumpy(local))
+            self._layer.SetTimeSample(target["paths"]["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(local)))
+            if "velocities" in target["paths"] and frame.velocities is not None:
+                velocities = np.asarray(frame.velocities[i], np.float64)[target["map"]] @ world_to_local[:3, :3]
+                self._layer.SetTimeSample(target["paths"]["velocities"], time, Vt.Vec3fArray.FromNumpy(as_points(velocities)))
 
     def _drop_handles(self) -> None:
         self._stage = None

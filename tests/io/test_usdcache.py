@@ -194,6 +194,8 @@ def test_a_frame_that_fails_half_way_is_not_kept(out_dir, monkeypatch):
             writer.write_frame(make_frame(header, 5))
     with read_usd_cache(out_dir / "shot.partial.usdc") as cache:
         assert cache.frames == [3, 4]
+    stage = Usd.Stage.Open(str(out_dir / "shot.partial.usdc"))
+    assert stage.GetEndTimeCode() == 4  # the frame cut short left no end time either
 
 
 def test_reader_sees_a_rebake_at_the_same_path(out_dir):
