@@ -1,14 +1,11 @@
 """Per-frame stats of the cloths of a merged group (clothtool.solver.merge), cheaply.
 
-A cloth's stats (clothtool.solver.measure.ClothMeter) cost one compiled call and ~30 us of
-Python (reducing its strain spans, building its dicts): for 16 small cloths more than their
-solve. Here each member's compiled call gets its arguments ready-made (views of the merged
-state and its own arrays, only 1/h changes) and the spans of all members are reduced in one
-pass over plain lists, the way ``ClothMeter._strain_from_spans`` reduces them (Python's
-``max`` and a running float sum, in span order), so every member's stats are the numbers its
-own meter gives: the same kernel on the same arrays. (One compiled call for the whole group
-would save ~5 us a cloth more but costs ~0.9 s of compilation in every process: it must call
-frame_summary unlinked, so it cannot come from the disk cache; see
+Each member's compiled stats call (frame_summary) gets its arguments ready-made (views of
+the merged state and its own arrays; only 1/h changes), and its results become stats through
+its own ClothMeter (``strain_from_spans``, ``summary_stats``): the same kernel on the same
+arrays, so every member's stats are the numbers its own meter gives. (One compiled call for
+the whole group would save ~5 us a cloth more but costs ~0.9 s of compilation in every
+process: it must call frame_summary unlinked, so it cannot come from the disk cache; see
 clothtool.solver.framefn.compile_for.) Percentiles and face penetration are measured by each
 member's own meter.
 """
@@ -33,10 +30,6 @@ class GroupMeasure:
                  model.mass),
                 (model.tether_anchor, model.tether_rest_length, meter.span_max, meter.span_sum),
             ))
-        # per member, per span: its phase type and constraint count
-        self._spans = [
-            [(label, int(last - first)) for label, (first, last) in zip(m.span_labels, m.span_bounds)] for m in meters
-        ]
         self._token: tuple | None = None
         self._stats: list[dict] = []
 
@@ -53,29 +46,7 @@ class GroupMeasure:
         meter = self.meters[k]
         before, after = self._arguments[k]
         speed, energy, fastest, bad, stretch = frame_summary(*before, inv_h, *after)
-        worst: dict[str, float] = {}
-        totals: dict[str, list] = {}
-        for (label, count), high, total in zip(self._spans[k], meter.span_max.tolist(), meter.span_sum.tolist()):
-            if label in worst:
-                worst[label] = max(worst[label], high)
-                entry = totals[label]
-                entry[0] += total
-                entry[1] += count
-            else:
-                worst[label] = max(float("-inf"), high)
-                totals[label] = [0.0 + total, count]
-        to_m = meter.solver.model.units_to_meters
-        stats = {
-            "strain": {label: {"max": worst[label], "mean": totals[label][0] / totals[label][1]} for label in worst},
-            "max_speed": float(speed) * to_m,
-            "fastest_particle": int(fastest),
-            "kinetic_energy": float(energy) * to_m * to_m,
-            "finite": bool(bad < 0),
-            "nonfinite_particle": int(bad),
-        }
-        if meter.has_tethers:
-            stats["tether_stretch"] = float(stretch)
-        return stats
+        return meter.summary_stats(meter.strain_from_spans(), speed, energy, fastest, bad, stretch)
 
 
 class MemberMeter:

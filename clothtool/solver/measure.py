@@ -34,6 +34,7 @@ class ClothMeter:
         self.span_bounds = np.array([span for _, span in ordered], np.int64).reshape(-1, 2)
         self.span_max = np.zeros(len(ordered))
         self.span_sum = np.zeros(len(ordered))
+        self._span_counts = (self.span_bounds[:, 1] - self.span_bounds[:, 0]).tolist()
         self.has_tethers = model.has_tethers
         self.colliders = solver.environment.colliders
 
@@ -70,7 +71,20 @@ class ClothMeter:
                 model.constraint_indices, model.constraint_rest_length, self.span_bounds, state.cur, state.prev,
                 model.mass, 1.0 / h, model.tether_anchor, model.tether_rest_length, self.span_max, self.span_sum,
             )
-            strain = self._strain_from_spans()
+            strain = self.strain_from_spans()
+        stats = self.summary_stats(strain, speed, energy, fastest, bad, stretch)
+        if time is not None and self.colliders is not None:
+            faces = face_penetration(
+                self.solver.world_points(), model.triangles, self.colliders(time), to_m, float(model.material.thickness)
+            )
+            stats["max_penetration"] = max(faces.depth, 0.0)
+            stats["faces_beyond_thickness"] = faces.faces_beyond
+        return stats
+
+    def summary_stats(self, strain: dict, speed, energy, fastest, bad, stretch) -> dict:
+        """The frame's stats dict from the strain per phase type and frame_summary's (or
+        motion_summary's and tether_stretch's) results, in SI units."""
+        to_m = self.solver.model.units_to_meters
         stats = {
             "strain": strain,
             "max_speed": float(speed) * to_m,
@@ -81,23 +95,20 @@ class ClothMeter:
         }
         if self.has_tethers:
             stats["tether_stretch"] = float(stretch)
-        if time is not None and self.colliders is not None:
-            faces = face_penetration(
-                self.solver.world_points(), model.triangles, self.colliders(time), to_m, float(model.material.thickness)
-            )
-            stats["max_penetration"] = max(faces.depth, 0.0)
-            stats["faces_beyond_thickness"] = faces.faces_beyond
         return stats
 
-    def _strain_from_spans(self) -> dict:
-        """Per phase type (max, mean) from frame_summary's per-span extremes."""
+    def strain_from_spans(self) -> dict:
+        """Per phase type (max, mean) from frame_summary's per-span extremes (over plain
+        lists: numpy scalars cost ~30 us a frame here, more than a small cloth's solve)."""
         worst: dict[str, float] = {}
-        totals: dict[str, tuple[float, int]] = {}
-        for s, label in enumerate(self.span_labels):
-            first, last = self.span_bounds[s]
-            worst[label] = max(worst.get(label, -np.inf), float(self.span_max[s]))
-            total, count = totals.get(label, (0.0, 0))
-            totals[label] = (total + float(self.span_sum[s]), count + int(last - first))
+        totals: dict[str, list] = {}  # label -> [sum, count]
+        for label, high, total, count in zip(
+            self.span_labels, self.span_max.tolist(), self.span_sum.tolist(), self._span_counts
+        ):
+            worst[label] = max(worst.get(label, -np.inf), high)
+            entry = totals.setdefault(label, [0.0, 0])
+            entry[0] += total
+            entry[1] += count
         return {label: {"max": worst[label], "mean": totals[label][0] / totals[label][1]} for label in worst}
 
     def _strain_with_percentiles(self) -> dict:
