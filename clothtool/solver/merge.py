@@ -200,7 +200,6 @@ class GroupMember:
         self.index = index
         self.model = solver.model
         self.stage_names = solver.stage_names
-        self._plan: FramePlan | None = None
 
     @property
     def leader(self) -> bool:
