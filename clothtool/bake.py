@@ -208,12 +208,14 @@ def make_solvers(scene: Scene, profiler: StageProfiler, merge: bool = True) -> l
     colliders = scene.colliders.at if scene.colliders is not None and len(scene.colliders) else None
     environment = Environment(np.asarray(scene.gravity, np.float64), wind, density, colliders)
     solvers = []
+    # the times every tracked cloth's frame is asked for, the same for all of them
+    iteration_ends = _iteration_ends(scene) if any(cloth.track is not None for cloth in scene.cloths) else []
     for cloth in scene.cloths:
         model = build_model(
             cloth.name, cloth.fabric, cloth.material, cloth.placement, scene.meters_per_unit, scene.up_axis,
             cloth.motion, cloth.backstop,
         )
-        track = _track_path(cloth.track, _iteration_ends(scene)) if cloth.track is not None else None
+        track = _track_path(cloth.track, iteration_ends) if cloth.track is not None else None
         teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
         extra = {"frame_dt": 1.0 / scene.fps} if scene.solver.integrator == "explicit" else {}
         attachment = _attachment(scene, cloth, model)
