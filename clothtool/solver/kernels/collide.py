@@ -420,19 +420,17 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
         cell_start = mesh[1]
         spheres = sphere_data.shape[0] > 0
         capsules = capsule_data.shape[0] > 0
-        swept = continuous and (spheres or capsules)
+        swept = with_continuous and continuous  # spheres and capsules swept over the iteration
         start = 0
         while start < virtual.shape[0]:
-            # the broad phase (collide_cull): a run of rows of one triangle far from every
-            # collider would get no contact and no move, row by row; it is skipped whole
             end = run_end(virtual, start)
             if end - start >= MIN_RUN:
                 ox, oy, oz, radius = triangle_ball(cur, prev, virtual[start, 0], virtual[start, 1], virtual[start, 2])
                 far = np.isfinite(ox + oy + oz + radius)
                 if far and spheres:
-                    far = spheres_far(ox, oy, oz, radius, sphere_data, with_continuous and swept)
+                    far = spheres_far(ox, oy, oz, radius, sphere_data, swept)
                 if far and capsules:
-                    far = capsules_far(ox, oy, oz, radius, capsule_data, with_continuous and swept)
+                    far = capsules_far(ox, oy, oz, radius, capsule_data, swept)
                 if with_convexes:
                     if far and offsets.shape[0] > 1:
                         far = convexes_far(ox, oy, oz, radius, planes, offsets, convex_data)
