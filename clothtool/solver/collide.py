@@ -39,6 +39,7 @@ from clothtool.solver.kernels.collide import (
 )
 from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
 from clothtool.solver.kernels.collide_mesh_faces import collide_mesh_faces
+from clothtool.solver.kernels.collide_shapes import CAPSULE_COLUMNS
 from clothtool.solver.kernels.collide_pose import (
     convex_shift,
     convex_translation,
@@ -150,7 +151,7 @@ class CollideStage(Stage):
         self.mesh_start = np.zeros((0, 3), real)
         self.mesh_end = np.zeros((0, 3), real)
         self.sphere_data = np.zeros((0, 9), real)
-        self.capsule_data = np.zeros((0, 17), real)
+        self.capsule_data = np.zeros((0, CAPSULE_COLUMNS), real)
         self.convex_data = np.zeros((0, 5), real)
         self.triangle_data = np.zeros((0, 32), real)
         # the mesh grid (world space)
@@ -286,7 +287,7 @@ class CollideStage(Stage):
         params = self.capsule_params = _reuse(self.capsule_params, (c, 2))
         params[:, 0] = start.capsule_margin + self.thickness
         params[:, 1] = friction_or(start.capsule_friction, self.friction)
-        self.capsule_data = _reuse(self.capsule_data, (c, 17))
+        self.capsule_data = _reuse(self.capsule_data, (c, CAPSULE_COLUMNS))
 
     def _copy_convexes(self, start: ColliderArrays, end: ColliderArrays) -> None:
         p = start.plane.shape[0]

@@ -186,7 +186,7 @@ def test_contact_response_inelastic_with_coulomb_friction():
     """A particle 1 cm inside a ground plane (y = 0, margin 0), falling at 1 m/s and sliding at
     3 m/s, mu = 0.5: it ends on the plane, its normal velocity is gone and its tangential
     speed drops by mu * 1 = 0.5 m/s; sliding at 0.3 m/s instead it sticks."""
-    e = np.zeros((0, 9), np.float32), np.zeros((0, 17), np.float32)
+    e = np.zeros((0, 9), np.float32), np.zeros((0, 24), np.float32)
     shapes = (*e, f32([[0.0, 1.0, 0.0, 0.0]]), np.array([0, 1], np.int32), f32([[0.0, 0.5, 0.0, 0.0, 0.0]]))
     _, mesh = scene(np.random.default_rng(0), still_frame())
     mesh = (mesh[0][:0], *mesh[1:])

@@ -85,7 +85,7 @@ def test_pack_records_match_reference():
     assert_close(out, ref.pack_spheres(start, end, colliders, params), 1e-6, "pack_spheres")
     index = np.array([[0, 1], [2, 4]], np.int32)
     cparams = f32(rng.uniform(0, 0.1, (2, 2)))
-    out = np.empty((2, 17), np.float32)
+    out = np.empty((2, 24), np.float32)
     pack_capsules(start, end, index, cparams, out)
     assert_close(out, ref.pack_capsules(start, end, index, cparams), 1e-6, "pack_capsules")
     points0, points1 = f32(rng.uniform(-1, 1, (6, 3))), f32(rng.uniform(-1, 1, (6, 3)))

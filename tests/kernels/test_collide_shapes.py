@@ -7,7 +7,10 @@ import numpy as np
 import pytest
 
 from clothtool.solver.kernels.collide_shapes import (
+    CAPSULE_COLUMNS,
     capsule_at,
+    capsule_axis,
+    capsule_distance,
     capsule_time_of_impact,
     convex_distance,
     perpendicular,
@@ -89,6 +92,45 @@ def test_round_cone_distance_is_exact_on_a_known_tapered_capsule():
     # on the axis, between the centres: the side is nearest
     d, *normal, _ = round_cone_distance(F32(5), F32(0), F32(0), *a, F32(2), *b, F32(1))
     assert abs(d - (5 * sin - 2)) < 1e-5
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64], ids=["f32", "f64"])
+def test_capsule_distance_is_round_cone_distance_within_reach(dtype):
+    """The record's axis terms (capsule_axis) match the reference; capsule_distance gives
+    round_cone_distance's very bits within reach and +inf beyond it, where the distance is
+    positive (the reference agrees on which points are beyond), on tapered, uniform and
+    nested capsules."""
+    rng = np.random.default_rng(7)
+    rejected = kept = 0
+    for case in range(60):
+        C = np.zeros((1, CAPSULE_COLUMNS), dtype)
+        a, ra, b, rb = random_capsule(rng)
+        if case % 10 == 0:
+            rb = ra  # uniform radius
+        if case % 10 == 1:
+            b, rb = a + F32(0.01), F32(ra * 0.5)  # b inside a
+        C[0, 8:11], C[0, 11], C[0, 12:15], C[0, 15] = a, ra, b, rb
+        capsule_axis(C, 0)
+        want = C.astype(np.float64)
+        ref.capsule_axis(want, 0)
+        np.testing.assert_allclose(C[0, 17:24], want[0, 17:24], rtol=1e-5, atol=1e-6)
+        for _ in range(40):
+            p = (a + rng.uniform(-0.5, 1.5) * (b - a) + rng.normal(0, 0.3, 3)).astype(dtype)
+            got = capsule_distance(*p, C, 0)
+            full = round_cone_distance(*p, *C[0, 8:16])
+            if np.isinf(got[0]):
+                rejected += 1
+                assert full[0] > 0.2 * max(ra, rb) * (1 - 1e-5), full
+            else:
+                kept += 1
+                assert np.array(got, dtype).tobytes() == np.array(full, dtype).tobytes()
+            reach, axis = 1.25 * max(ra, rb), (b - a).astype(np.float64)
+            axial = (p - a) @ axis / np.linalg.norm(axis)
+            radial = np.linalg.norm(p - a - axial * axis / np.linalg.norm(axis))
+            edges = (radial - reach, axial + reach, axial - np.linalg.norm(axis) - reach)
+            if min(abs(e) for e in edges) > 1e-4:  # away from the reach's boundary
+                assert np.isinf(got[0]) == np.isinf(ref.capsule_distance(*p, C, 0)[0])
+    assert rejected > 300 and kept > 300
 
 
 def test_round_cone_degenerates_to_the_bigger_sphere():

@@ -54,7 +54,22 @@ def pack_capsules(start, end, index, params):
     grow = np.array([0, 0, 0, 1.0])
     parts = [s[index[:, 0]], s[index[:, 1]], e[index[:, 0]], e[index[:, 1]]]
     parts = [part + p[:, :1] * grow for part in parts]
-    return np.concatenate(parts + [p[:, 1:2]], axis=1)
+    return np.concatenate(parts + [p[:, 1:2], capsule_axes(parts[2], parts[3])], axis=1)
+
+
+def capsule_axes(a, b):
+    """The capsule records' end-pose axis terms (collide_shapes.capsule_axis) of end spheres
+    a, b (k,4): unit axis, length (-1 when one sphere holds the other), sin and cos of the
+    taper, square of 1.25 times the larger radius."""
+    axis = b[:, :3] - a[:, :3]
+    length = np.linalg.norm(axis, axis=1)
+    nested = (length <= np.abs(a[:, 3] - b[:, 3])) | (length <= 1e-12)
+    safe = np.where(nested, 1.0, length)
+    sin_a = np.where(nested, 0.0, (a[:, 3] - b[:, 3]) / safe)
+    return np.column_stack([
+        np.where(nested[:, None], 0.0, axis / safe[:, None]), np.where(nested, -1.0, length), sin_a,
+        np.where(nested, 0.0, np.sqrt(np.maximum(1.0 - sin_a ** 2, 0.0))), (1.25 * np.maximum(a[:, 3], b[:, 3])) ** 2,
+    ])
 
 
 def pack_triangles(points0, points1, triangles, params):

@@ -76,6 +76,31 @@ def round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb):
     return (distance, *n, sigma)
 
 
+def capsule_axis(C, c):
+    """Fill record c's end-pose axis terms (columns 17-23) from its end spheres."""
+    from tests.reference.collide_pose import capsule_axes
+
+    a, b = np.asarray(C[c:c + 1, 8:12], np.float64), np.asarray(C[c:c + 1, 12:16], np.float64)
+    C[c, 17:24] = capsule_axes(a, b)[0]
+
+
+def capsule_distance(px, py, pz, C, c):
+    """round_cone_distance from capsule c's end pose; (inf, 0, 1, 0, 0) beyond 1.25 times the
+    larger radius from the axis segment's slab or past an end (the terms of column 17-23)."""
+    a, b = np.asarray(C[c, 8:11], np.float64), np.asarray(C[c, 12:15], np.float64)
+    ra, rb = float(C[c, 11]), float(C[c, 15])
+    reach = 1.25 * max(ra, rb)
+    p = _vec(px, py, pz)
+    length = np.linalg.norm(b - a)
+    if length > abs(ra - rb) and length > 1e-12:
+        u = (b - a) / length
+        axial = (p - a) @ u
+        radial = np.linalg.norm(p - a - axial * u)
+        if radial > reach or axial < -reach or axial > length + reach:
+            return np.inf, 0.0, 1.0, 0.0, 0.0
+    return round_cone_distance(px, py, pz, *a, ra, *b, rb)
+
+
 def convex_distance(px, py, pz, planes, first, last, margin):
     if last <= first:
         return np.inf, 0.0, 1.0, 0.0

@@ -3,7 +3,7 @@
 The kernels read packed records (see collide_shapes, collide_mesh), all in the cloth's local
 frame and posed for the current iteration by the stage (clothtool.solver.kernels.collide_pose):
 
-    shapes = (sphere_data (s,9), capsule_data (c,17), planes at the end (p,4),
+    shapes = (sphere_data (s,9), capsule_data (c,24), planes at the end (p,4),
               convex offsets i32 (k+1,), convex_data (k,5): margin, friction, own shift xyz)
     mesh   = (triangle_data (t,32), cell_start i32, cell_items i32, cell_ranges i32 (t,6),
               grid (7,))
@@ -50,6 +50,7 @@ from clothtool.solver.kernels.collide_cull import (
 from clothtool.solver.kernels.collide_mesh import mesh_contact
 from clothtool.solver.kernels.collide_shapes import (
     capsule_at,
+    capsule_distance,
     capsule_time_of_impact,
     convex_distance,
     rotate_between,
@@ -154,9 +155,7 @@ def capsule_contacts(px, py, pz, capsule_data):
     dx = dy = dz = sx = sy = sz = budget = zero
     C = capsule_data
     for c in range(C.shape[0]):
-        d, nx, ny, nz, sigma = round_cone_distance(
-            px, py, pz, C[c, 8], C[c, 9], C[c, 10], C[c, 11], C[c, 12], C[c, 13], C[c, 14], C[c, 15]
-        )
+        d, nx, ny, nz, sigma = capsule_distance(px, py, pz, C, c)
         if d < zero:
             count += 1
             dx -= d * nx

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool.solver.kernels.collide_shapes import capsule_axis
 
 
 @kernel
@@ -73,9 +74,9 @@ def pack_spheres(start, end, colliders, params, out):
 
 @kernel
 def pack_capsules(start, end, index, params, out):
-    """out (c,17) capsule records (collide_shapes): end spheres index (c,2) of the posed
-    spheres at the start then the end, radii plus margin, friction; params (c,2) is margin,
-    friction."""
+    """out (c,24) capsule records (collide_shapes): end spheres index (c,2) of the posed
+    spheres at the start then the end, radii plus margin, friction, and the end pose's axis
+    terms (collide_shapes.capsule_axis); params (c,2) is margin, friction."""
     for c in range(index.shape[0]):
         for e in range(2):
             s = index[c, e]
@@ -85,6 +86,7 @@ def pack_capsules(start, end, index, params, out):
             out[c, 4 * e + 3] = start[s, 3] + params[c, 0]
             out[c, 8 + 4 * e + 3] = end[s, 3] + params[c, 0]
         out[c, 16] = params[c, 1]
+        capsule_axis(out, c)
 
 
 @kernel

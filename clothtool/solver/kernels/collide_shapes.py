@@ -7,7 +7,9 @@ thickness), so a contact is a negative distance and its push-out is ``-distance 
 Packed records (one row per primitive, float32; the stage fills them each iteration):
 
     sphere_data  (s, 9):  x0 y0 z0 r0  x1 y1 z1 r1  friction       start and end pose
-    capsule_data (c, 17): a0 ra0 b0 rb0 a1 ra1 b1 rb1 friction       (a, b: xyz end centres)
+    capsule_data (c, 24): a0 ra0 b0 rb0 a1 ra1 b1 rb1 friction       (a, b: xyz end centres)
+                          then the end pose's axis terms (capsule_axis): u xyz, L, sin(alpha),
+                          cos(alpha), and the square of the reach beyond which no point touches
 
 Capsule = the convex hull of two spheres (a, ra) and (b, rb), which is also the union of the
 spheres interpolated linearly between them. With axis length L, unit axis u and
@@ -112,6 +114,98 @@ def round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb):
     ny = sin_a * uy + cos_a * ey
     nz = sin_a * uz + cos_a * ez
     # the interpolated sphere through the closest point: its centre lies along -n from it
+    sigma = (axial - d * sin_a - ra * sin_a) / (length * cos_a * cos_a)
+    return d, nx, ny, nz, min(max(sigma, zero), one)
+
+
+# Columns of a capsule record: the poses and friction, then the end pose's axis terms.
+CAPSULE_COLUMNS = 24
+# A point farther than this times the larger radius from the axis, or beyond either end,
+# touches nothing: its distance is then at least a fifth of that radius, so the rounding of
+# the arithmetic (which the full computation would do on the same terms) cannot make it a contact.
+REACH = 1.25
+
+
+@kernel
+def capsule_axis(C, c):
+    """Fill columns 17-23 of capsule record c from its end pose (columns 8-15): the terms of
+    round_cone_distance that do not depend on the point, computed as it computes them (same
+    operations, same bits): unit axis u, length L, sin(alpha), cos(alpha); L is -1 when one end
+    sphere holds the other (the capsule is then its bigger end sphere). Column 23 is the
+    square of REACH times the larger radius."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    ax, ay, az, ra = C[c, 8], C[c, 9], C[c, 10], C[c, 11]
+    bx, by, bz, rb = C[c, 12], C[c, 13], C[c, 14], C[c, 15]
+    abx = bx - ax
+    aby = by - ay
+    abz = bz - az
+    length = np.sqrt(abx * abx + aby * aby + abz * abz)
+    reach = REACH * max(ra, rb)
+    C[c, 23] = reach * reach
+    if length <= abs(ra - rb) or length <= TINY:
+        C[c, 17] = C[c, 18] = C[c, 19] = C[c, 21] = C[c, 22] = zero
+        C[c, 20] = -one
+        return
+    inv_length = one / length
+    C[c, 17] = abx * inv_length
+    C[c, 18] = aby * inv_length
+    C[c, 19] = abz * inv_length
+    C[c, 20] = length
+    sin_a = (ra - rb) * inv_length
+    C[c, 21] = sin_a
+    C[c, 22] = np.sqrt(max(one - sin_a * sin_a, zero))
+
+
+@kernel
+def capsule_distance(px, py, pz, C, c):
+    """round_cone_distance of p from capsule c's end pose, from the record's axis terms
+    (capsule_axis), with the same bits; (inf, 0, 1, 0, 0) when p is beyond its reach (more
+    than REACH times its larger radius from the axis, or beyond an end by as much)."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    ax, ay, az, ra = C[c, 8], C[c, 9], C[c, 10], C[c, 11]
+    reach2 = C[c, 23]
+    length = C[c, 20]
+    if length < zero:  # one end sphere holds the other
+        if ra >= C[c, 15]:
+            d, nx, ny, nz = sphere_distance(px, py, pz, ax, ay, az, ra)
+            return d, nx, ny, nz, zero
+        d, nx, ny, nz = sphere_distance(px, py, pz, C[c, 12], C[c, 13], C[c, 14], C[c, 15])
+        return d, nx, ny, nz, one
+    ux, uy, uz = C[c, 17], C[c, 18], C[c, 19]
+    sin_a, cos_a = C[c, 21], C[c, 22]
+    dx = px - ax
+    dy = py - ay
+    dz = pz - az
+    axial = dx * ux + dy * uy + dz * uz
+    ex = dx - axial * ux
+    ey = dy - axial * uy
+    ez = dz - axial * uz
+    radial2 = ex * ex + ey * ey + ez * ez
+    beyond = axial - length  # past end b when positive
+    if radial2 > reach2 or (axial < zero and axial * axial > reach2) or (beyond > zero and beyond * beyond > reach2):
+        return np.inf, zero, one, zero, zero
+    radial = np.sqrt(radial2)
+    if radial <= TINY * length:
+        ex, ey, ez = perpendicular(ux, uy, uz)
+        radial = zero
+    else:
+        inv = one / radial
+        ex *= inv
+        ey *= inv
+        ez *= inv
+    s = axial * cos_a - radial * sin_a
+    if s <= zero:
+        d, nx, ny, nz = sphere_distance(px, py, pz, ax, ay, az, ra)
+        return d, nx, ny, nz, zero
+    if s >= length * cos_a:
+        d, nx, ny, nz = sphere_distance(px, py, pz, C[c, 12], C[c, 13], C[c, 14], C[c, 15])
+        return d, nx, ny, nz, one
+    d = axial * sin_a + radial * cos_a - ra
+    nx = sin_a * ux + cos_a * ex
+    ny = sin_a * uy + cos_a * ey
+    nz = sin_a * uz + cos_a * ez
     sigma = (axial - d * sin_a - ra * sin_a) / (length * cos_a * cos_a)
     return d, nx, ny, nz, min(max(sigma, zero), one)
 
