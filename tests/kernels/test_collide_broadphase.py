@@ -210,7 +210,15 @@ def test_far_tests_match_closed_forms():
 
 def test_cull_kernels_match_reference():
     """Each broad-phase kernel against tests/reference/collide_cull.py on random balls."""
-    from clothtool.solver.kernels.collide_cull import convexes_far, mesh_far, run_end, triangle_ball
+    from clothtool.solver.kernels.collide_cull import (
+        boxes_miss,
+        collider_boxes,
+        convexes_far,
+        mesh_far,
+        run_end,
+        triangle_ball,
+        triangle_box,
+    )
     from tests.reference import collide_cull as ref
 
     rng = np.random.default_rng(3)
@@ -220,6 +228,20 @@ def test_cull_kernels_match_reference():
     assert [run_end(virtual, r) for r in (0, 1, 2, 4)] == [ref.run_end(virtual, r) for r in (0, 1, 2, 4)] == [2, 2, 5, 5]
     cur, prev = rng.normal(0, 0.3, (6, 4)).astype(np.float32), rng.normal(0, 0.3, (6, 4)).astype(np.float32)
     np.testing.assert_allclose(triangle_ball(cur, prev, 0, 1, 2), ref.triangle_ball(cur, prev, 0, 1, 2), rtol=1e-12)
+    assert triangle_box(cur, prev, 0, 1, 2) == ref.triangle_box(cur, prev, 0, 1, 2)
+    count = shapes[0].shape[0] + shapes[1].shape[0]
+    for swept in (False, True):
+        boxes, want = np.empty((count, 6)), np.empty((count, 6))
+        collider_boxes(shapes[0], shapes[1], swept, boxes)
+        ref.collider_boxes(shapes[0], shapes[1], swept, want)
+        np.testing.assert_allclose(boxes, want, rtol=1e-12)
+    misses = 0
+    for _ in range(300):  # boxes placed at random, both verdicts
+        lo = rng.uniform(-0.8, 0.6, 3)
+        box = (*lo, *(lo + rng.uniform(0.0, 0.2, 3)))
+        assert boxes_miss(*box, boxes) == ref.boxes_miss(*box, boxes)
+        misses += ref.boxes_miss(*box, boxes)
+    assert 20 < misses < 280, misses
     verdicts = np.zeros((4, 2), int)
     for _ in range(300):
         c, radius = rng.uniform(-0.7, 0.7, 3), float(rng.uniform(0.0, 0.15))

@@ -20,6 +20,38 @@ def triangle_ball(cur, prev, a, b, c):
     return (*centre, float(np.linalg.norm(corners - centre, axis=1).max()))
 
 
+def triangle_box(cur, prev, a, b, c):
+    corners = np.vstack([cur[[a, b, c], :3], prev[[a, b, c], :3]]).astype(np.float64)
+    return (*corners.min(axis=0), *corners.max(axis=0))
+
+
+def _grow_box(out, k, x, y, z, r):
+    out[k, :3] = np.minimum(out[k, :3], np.array([x, y, z]) - r)
+    out[k, 3:] = np.maximum(out[k, 3:], np.array([x, y, z]) + r)
+
+
+def collider_boxes(sphere_data, capsule_data, swept, out):
+    balls = [np.asarray(sphere_data, np.float64)[:, [4, 5, 6, 7, 0, 1, 2, 3]]]
+    balls.append(np.asarray(capsule_data, np.float64)[:, [8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7]])
+    rows = [(row.reshape(-1, 4), 0.0) for row in balls[0]]
+    rows += [(row.reshape(-1, 4), 1.0) for row in balls[1]]
+    for k, (spheres, capsule) in enumerate(rows):
+        used = spheres if swept else spheres[: 2 if capsule else 1]
+        out[k, :3] = (used[:, :3] - used[:, 3:]).min(axis=0)
+        out[k, 3:] = (used[:, :3] + used[:, 3:]).max(axis=0)
+        tolerance = (1e-4 * np.abs(used[:, 3]).max() + 1e-9) if swept and capsule else 0.0
+        grow = tolerance + SLACK * np.abs(out[k]).sum()
+        out[k, :3] -= grow
+        out[k, 3:] += grow
+
+
+def boxes_miss(lx, ly, lz, hx, hy, hz, boxes):
+    box = np.array([lx, ly, lz, hx, hy, hz], np.float64)
+    grow = SLACK * np.abs(box).sum()
+    lo, hi = box[:3] - grow, box[3:] + grow
+    return all(((lo > row[3:]) | (hi < row[:3])).any() for row in np.asarray(boxes))
+
+
 def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
     p, a, b = np.array([px, py, pz], float), np.array([ax, ay, az], float), np.array([bx, by, bz], float)
     e = b - a

@@ -40,15 +40,19 @@ import numpy as np
 from clothtool._jit import kernel, serial_and_parallel
 from clothtool.solver.kernels.collide_cull import (
     MIN_RUN,
+    boxes_miss,
     capsules_far,
+    collider_boxes,
     convexes_far,
     mesh_far,
     run_end,
     spheres_far,
     triangle_ball,
+    triangle_box,
 )
 from clothtool.solver.kernels.collide_mesh import mesh_contact
 from clothtool.solver.kernels.collide_shapes import (
+    REACH,
     capsule_at,
     capsule_distance,
     capsule_time_of_impact,
@@ -133,6 +137,13 @@ def sphere_contacts(px, py, pz, sphere_data):
     dx = dy = dz = sx = sy = sz = budget = zero
     S = sphere_data
     for s in range(S.shape[0]):
+        # beyond 1.25 radii the distance is at least a quarter radius: skip the square root
+        ox = px - S[s, 4]
+        oy = py - S[s, 5]
+        oz = pz - S[s, 6]
+        reach = REACH * S[s, 7]
+        if ox * ox + oy * oy + oz * oz > reach * reach:
+            continue
         d, nx, ny, nz = sphere_distance(px, py, pz, S[s, 4], S[s, 5], S[s, 6], S[s, 7])
         if d < zero:
             count += 1
@@ -420,16 +431,28 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
         spheres = sphere_data.shape[0] > 0
         capsules = capsule_data.shape[0] > 0
         swept = with_continuous and continuous  # spheres and capsules swept over the iteration
+        # first test of a run: its corners' box against the spheres' and capsules' boxes
+        boxes = np.empty((sphere_data.shape[0] + capsule_data.shape[0], 6))
+        collider_boxes(sphere_data, capsule_data, swept, boxes)
         start = 0
         while start < virtual.shape[0]:
             end = run_end(virtual, start)
             if end - start >= MIN_RUN:
-                ox, oy, oz, radius = triangle_ball(cur, prev, virtual[start, 0], virtual[start, 1], virtual[start, 2])
-                far = np.isfinite(ox + oy + oz + radius)
-                if far and spheres:
-                    far = spheres_far(ox, oy, oz, radius, sphere_data, swept)
-                if far and capsules:
-                    far = capsules_far(ox, oy, oz, radius, capsule_data, swept)
+                a = virtual[start, 0]
+                b = virtual[start, 1]
+                c = virtual[start, 2]
+                lx, ly, lz, hx, hy, hz = triangle_box(cur, prev, a, b, c)
+                far = np.isfinite(lx + ly + lz + hx + hy + hz) and boxes_miss(lx, ly, lz, hx, hy, hz, boxes)
+                if far and not with_convexes and not with_meshes:
+                    start = end
+                    continue
+                ox, oy, oz, radius = triangle_ball(cur, prev, a, b, c)
+                if not far:  # the boxes meet: the closer test, sphere by sphere and capsule by capsule
+                    far = np.isfinite(ox + oy + oz + radius)
+                    if far and spheres:
+                        far = spheres_far(ox, oy, oz, radius, sphere_data, swept)
+                    if far and capsules:
+                        far = capsules_far(ox, oy, oz, radius, capsule_data, swept)
                 if with_convexes:
                     if far and offsets.shape[0] > 1:
                         far = convexes_far(ox, oy, oz, radius, planes, offsets, convex_data)

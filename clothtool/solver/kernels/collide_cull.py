@@ -56,14 +56,93 @@ def triangle_ball(cur, prev, a, b, c):
     cx = (np.float64(cur[a, 0]) + np.float64(cur[b, 0]) + np.float64(cur[c, 0])) / 3.0
     cy = (np.float64(cur[a, 1]) + np.float64(cur[b, 1]) + np.float64(cur[c, 1])) / 3.0
     cz = (np.float64(cur[a, 2]) + np.float64(cur[b, 2]) + np.float64(cur[c, 2])) / 3.0
-    radius = 0.0
+    square = 0.0  # the largest squared distance: one square root (sqrt is monotonic and exact)
     for state in (cur, prev):
         for particle in (a, b, c):
             dx = np.float64(state[particle, 0]) - cx
             dy = np.float64(state[particle, 1]) - cy
             dz = np.float64(state[particle, 2]) - cz
-            radius = max(radius, np.sqrt(dx * dx + dy * dy + dz * dz))
-    return cx, cy, cz, radius
+            square = max(square, dx * dx + dy * dy + dz * dz)
+    return cx, cy, cz, np.sqrt(square)
+
+
+@kernel(inline="always")
+def triangle_box(cur, prev, a, b, c):
+    """(lo xyz, hi xyz) float64: the box of particles a, b, c at ``cur`` and ``prev`` (exact:
+    min and max do not round)."""
+    lx = hx = np.float64(cur[a, 0])
+    ly = hy = np.float64(cur[a, 1])
+    lz = hz = np.float64(cur[a, 2])
+    for state in (cur, prev):
+        for particle in (a, b, c):
+            x = np.float64(state[particle, 0])
+            y = np.float64(state[particle, 1])
+            z = np.float64(state[particle, 2])
+            lx, hx = min(lx, x), max(hx, x)
+            ly, hy = min(ly, y), max(hy, y)
+            lz, hz = min(lz, z), max(hz, z)
+    return lx, ly, lz, hx, hy, hz
+
+
+@kernel
+def _grow_box(out, k, x, y, z, r):
+    """Grow box k of ``out`` (lo xyz, hi xyz) to hold the ball (x, y, z, r)."""
+    out[k, 0] = min(out[k, 0], x - r)
+    out[k, 1] = min(out[k, 1], y - r)
+    out[k, 2] = min(out[k, 2], z - r)
+    out[k, 3] = max(out[k, 3], x + r)
+    out[k, 4] = max(out[k, 4], y + r)
+    out[k, 5] = max(out[k, 5], z + r)
+
+
+@kernel
+def collider_boxes(sphere_data, capsule_data, swept, out):
+    """out (s+c, 6) float64: a box per sphere, then per capsule, holding it at the end pose
+    (``swept``: over its motion through the iteration, the box of its start and end poses:
+    a sphere interpolated between two lies in their boxes' hull; for capsules grown by
+    capsule_time_of_impact's tolerance), then grown by SLACK of its coordinates' magnitude."""
+    S, C = sphere_data, capsule_data
+    s_count = S.shape[0]
+    for k in range(s_count + C.shape[0]):
+        out[k, 0] = out[k, 1] = out[k, 2] = np.inf
+        out[k, 3] = out[k, 4] = out[k, 5] = -np.inf
+        if k < s_count:
+            _grow_box(out, k, np.float64(S[k, 4]), np.float64(S[k, 5]), np.float64(S[k, 6]), np.float64(S[k, 7]))
+            if swept:
+                _grow_box(out, k, np.float64(S[k, 0]), np.float64(S[k, 1]), np.float64(S[k, 2]), np.float64(S[k, 3]))
+            tolerance = 0.0
+        else:
+            c = k - s_count
+            largest = 0.0
+            for first in (8, 12, 0, 4):
+                if first < 8 and not swept:
+                    break
+                radius = np.float64(C[c, first + 3])
+                largest = max(largest, abs(radius))
+                _grow_box(out, k, np.float64(C[c, first]), np.float64(C[c, first + 1]), np.float64(C[c, first + 2]), radius)
+            tolerance = 1e-4 * largest + 1e-9 if swept else 0.0
+        grow = tolerance + SLACK * (abs(out[k, 0]) + abs(out[k, 1]) + abs(out[k, 2]) + abs(out[k, 3]) + abs(out[k, 4]) + abs(out[k, 5]))
+        for d in range(3):
+            out[k, d] -= grow
+            out[k, 3 + d] += grow
+
+
+@kernel(inline="always")
+def boxes_miss(lx, ly, lz, hx, hy, hz, boxes):
+    """True when the box (l, h) is apart from every box of ``boxes`` (collider_boxes) by more
+    than SLACK of its own coordinates' magnitude: no point of it (or, within rounding, a
+    convex combination of its corners) touches those colliders."""
+    grow = SLACK * (abs(lx) + abs(ly) + abs(lz) + abs(hx) + abs(hy) + abs(hz))
+    lx -= grow
+    ly -= grow
+    lz -= grow
+    hx += grow
+    hy += grow
+    hz += grow
+    for k in range(boxes.shape[0]):
+        if not (lx > boxes[k, 3] or hx < boxes[k, 0] or ly > boxes[k, 4] or hy < boxes[k, 1] or lz > boxes[k, 5] or hz < boxes[k, 2]):
+            return False
+    return True
 
 
 @kernel
