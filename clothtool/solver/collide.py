@@ -39,7 +39,6 @@ from clothtool.solver.kernels.collide import (
 )
 from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
 from clothtool.solver.kernels.collide_mesh_faces import collide_mesh_faces
-from clothtool.solver.kernels.collide_shapes import CAPSULE_COLUMNS
 from clothtool.solver.kernels.collide_pose import (
     convex_shift,
     convex_translation,
@@ -50,6 +49,7 @@ from clothtool.solver.kernels.collide_pose import (
     pose_points,
     pose_spheres,
 )
+from clothtool.solver.kernels.collide_shapes import CAPSULE_COLUMNS
 from clothtool.solver.meshfaces import collider_owners, sample_spacing
 from clothtool.solver.stage import Stage
 
