@@ -408,6 +408,16 @@ def collide_particles_for(meshes: bool, convexes: bool, continuous: bool):
 collide_particles, collide_particles_parallel = collide_particles_for(True, True, True)
 
 
+@kernel(inline="always")
+def _weighted(state, a, b, c, wa, wb, wc):
+    """wa state[a] + wb state[b] + wc state[c] (xyz)."""
+    return (
+        wa * state[a, 0] + wb * state[b, 0] + wc * state[c, 0],
+        wa * state[a, 1] + wb * state[b, 1] + wc * state[c, 1],
+        wa * state[a, 2] + wb * state[b, 2] + wc * state[c, 2],
+    )
+
+
 def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuous: bool):
     """``collide_virtual`` over the ``point_correction`` kept to the collider kinds present.
     It picks its variant by closure constants among the module's globals, not by capturing
@@ -478,9 +488,11 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
                 px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
                 py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
                 pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
-                qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
-                qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
-                qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
+                # the point at the iteration's start: for continuous collision and meshes, else
+                # (the variants without them never read it) only for the friction of a contact
+                qx = qy = qz = zero
+                if with_continuous or with_meshes:
+                    qx, qy, qz = _weighted(prev, a, b, c, wa, wb, wc)
                 # the point's own continuous move (to where it hit, on the side it came from) is part
                 # of its correction, shared out like the push-out. The variant for the collider kinds
                 # present: closure constants, so numba prunes the branches not taken before typing
@@ -511,6 +523,8 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
                 cz = mz
                 scale = one
                 if count > 0:
+                    if not (with_continuous or with_meshes):
+                        qx, qy, qz = _weighted(prev, a, b, c, wa, wb, wc)
                     fx, fy, fz = friction_correction(
                         px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
                     )
