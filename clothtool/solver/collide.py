@@ -81,6 +81,49 @@ def _names_in(lines: tuple[str, ...]) -> frozenset[str]:
     return frozenset(re.findall(r"\{(\w+)\}", "\n".join(lines)))
 
 
+@functools.lru_cache(maxsize=None)
+def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtual: bool,
+                 mesh_faces: bool) -> tuple[tuple[str, ...], frozenset[str]]:
+    """The collide stage's frame-function lines for the collider kinds present, and the
+    names they use (the same every frame of a scene: built once, not per frame)."""
+    lines = [
+        "if it == 0:",
+        "    {pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha0}[it], 0, {sphere_start})",
+    ]
+    if has_mesh:
+        lines += ["    if {pose_mesh}[it]:",
+                  "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha0}[it], 0, {mesh_start})"]
+    lines += ["else:", *("    " + line for line in copy_lines("{sphere_end}", "{sphere_start}"))]
+    if has_mesh:
+        lines += ["    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
+    lines.append("{pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha1}[it], 1, {sphere_end})")
+    if has_planes:
+        lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[it], {alpha1}[it], 1, {plane_end})")
+    lines += [
+        "{pack_spheres}({sphere_start}, {sphere_end}, {sphere_colliders}, {sphere_params}, {sphere_data})",
+        "{pack_capsules}({sphere_start}, {sphere_end}, {capsule_index}, {capsule_params}, {capsule_data})",
+    ]
+    if has_convexes:
+        lines.append("{convex_shift}({convex_translation}, {frames}[it], {alpha_step}[it], {convex_data})")
+    if has_mesh:
+        lines += [
+            "if {pose_mesh}[it]:",
+            "    {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha1}[it], 1, {mesh_end})",
+            "    {pack_triangles}({mesh_start}, {mesh_end}, {triangles}, {triangle_params}, {triangle_data})",
+        ]
+    groups = ("({sphere_data}, {capsule_data}, {plane_end}, {convex_offsets}, {convex_data}), "
+              "({triangle_data}, {cell_start}, {cell_items}, {cell_ranges}, {grid})")
+    lines.append("{collide}(" + groups + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+    if has_virtual:
+        lines.append("{collide_virtual}({virtual}, {virtual_weights}, " + groups
+                     + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+    if mesh_faces:
+        lines.append("{collide_mesh_faces}({cloth_triangles}, {owners}, {triangle_data}, {cell_start}, {cell_items}, "
+                     "{cell_ranges}, {grid}, {frames}[it], prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
+                     "{face_record}, cur)")
+    return tuple(lines), _names_in(tuple(lines))
+
+
 class CollideStage(Stage):
     """Collision with ``solver.environment.colliders`` (see the module docstring).
 
@@ -387,70 +430,37 @@ class CollideStage(Stage):
             self._mesh_packed = self.mesh_still
 
     def fused_call(self) -> FusedCall:
-        has_mesh = self.mesh_world[0].shape[0] > 0
-        lines = [
-            "if it == 0:",
-            "    {pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha0}[it], 0, {sphere_start})",
-        ]
-        if has_mesh:
-            lines += ["    if {pose_mesh}[it]:",
-                      "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha0}[it], 0, {mesh_start})"]
-        lines += ["else:", *("    " + line for line in copy_lines("{sphere_end}", "{sphere_start}"))]
-        if has_mesh:
-            lines += ["    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
-        lines.append("{pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha1}[it], 1, {sphere_end})")
-        if self.plane_end.shape[0]:
-            lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[it], {alpha1}[it], 1, {plane_end})")
-        lines += [
-            "{pack_spheres}({sphere_start}, {sphere_end}, {sphere_colliders}, {sphere_params}, {sphere_data})",
-            "{pack_capsules}({sphere_start}, {sphere_end}, {capsule_index}, {capsule_params}, {capsule_data})",
-        ]
-        if self.convex_data.shape[0]:
-            lines.append("{convex_shift}({convex_translation}, {frames}[it], {alpha_step}[it], {convex_data})")
-        if has_mesh:
-            lines += [
-                "if {pose_mesh}[it]:",
-                "    {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha1}[it], 1, {mesh_end})",
-                "    {pack_triangles}({mesh_start}, {mesh_end}, {triangles}, {triangle_params}, {triangle_data})",
-            ]
-        groups = ("({sphere_data}, {capsule_data}, {plane_end}, {convex_offsets}, {convex_data}), "
-                  "({triangle_data}, {cell_start}, {cell_items}, {cell_ranges}, {grid})")
-        lines.append("{collide}(" + groups + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
-        if self.virtual.shape[0]:
-            lines.append("{collide_virtual}({virtual}, {virtual_weights}, " + groups
-                         + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
-        if self.mesh_faces and self.triangle_data.shape[0]:
-            lines.append("{collide_mesh_faces}({cloth_triangles}, {owners}, {triangle_data}, {cell_start}, {cell_items}, "
-                         "{cell_ranges}, {grid}, {frames}[it], prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
-                         "{face_record}, cur)")
-        args = {
-            "frames": self.frames, "alpha0": self.alpha0, "alpha1": self.alpha1, "alpha_step": self.alpha_step,
-            "pose_mesh": self.pose_mesh, "sphere_world0": self.sphere_world[0], "sphere_world1": self.sphere_world[1],
-            "sphere_start": self.sphere_start, "sphere_end": self.sphere_end, "mesh_world0": self.mesh_world[0],
-            "mesh_world1": self.mesh_world[1], "mesh_start": self.mesh_start, "mesh_end": self.mesh_end,
-            "plane_world0": self.plane_world[0], "plane_world1": self.plane_world[1], "plane_end": self.plane_end,
-            "sphere_colliders": self.sphere_colliders, "sphere_params": self.sphere_params,
-            "sphere_data": self.sphere_data, "capsule_index": self.capsule_index,
-            "capsule_params": self.capsule_params, "capsule_data": self.capsule_data,
-            "convex_translation": self.convex_translation, "convex_offsets": self.convex_offsets,
-            "convex_data": self.convex_data, "triangles": self.triangles, "triangle_params": self.triangle_params,
-            "triangle_data": self.triangle_data, "cell_start": self.cell_start, "cell_items": self.cell_items,
-            "cell_ranges": self.cell_ranges, "grid": self.grid, "continuous": self.continuous,
-            "mass_scale": self.mass_scale, "meters_per_unit": self.meters_per_unit, "virtual": self.virtual,
-            "virtual_weights": self.virtual_weights, "cloth_triangles": self.cloth_triangles, "owners": self.owners,
-            "face_margin": self.face_margin, "face_record": self.face_record,
-        }
-        used = _names_in(tuple(lines))
+        lines, used = _fused_lines(
+            self.mesh_world[0].shape[0] > 0, self.plane_end.shape[0] > 0, self.convex_data.shape[0] > 0,
+            self.virtual.shape[0] > 0, self.mesh_faces and self.triangle_data.shape[0] > 0,
+        )
+        args = {name: value for name, value in self._fused_values() if name in used}
         kernels = {
             "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
             "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
             "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": self.virtual_kernel,
             "collide_mesh_faces": collide_mesh_faces,
         }
-        return FusedCall(
-            tuple(lines),
-            {name: value for name, value in args.items() if name in used},
-            {name: k for name, k in kernels.items() if name in used},
+        return FusedCall(lines, args, {name: k for name, k in kernels.items() if name in used})
+
+    def _fused_values(self):
+        """(name, value) of every array and scalar the frame function's lines may name."""
+        return (
+            ("frames", self.frames), ("alpha0", self.alpha0), ("alpha1", self.alpha1), ("alpha_step", self.alpha_step),
+            ("pose_mesh", self.pose_mesh), ("sphere_world0", self.sphere_world[0]), ("sphere_world1", self.sphere_world[1]),
+            ("sphere_start", self.sphere_start), ("sphere_end", self.sphere_end), ("mesh_world0", self.mesh_world[0]),
+            ("mesh_world1", self.mesh_world[1]), ("mesh_start", self.mesh_start), ("mesh_end", self.mesh_end),
+            ("plane_world0", self.plane_world[0]), ("plane_world1", self.plane_world[1]), ("plane_end", self.plane_end),
+            ("sphere_colliders", self.sphere_colliders), ("sphere_params", self.sphere_params),
+            ("sphere_data", self.sphere_data), ("capsule_index", self.capsule_index),
+            ("capsule_params", self.capsule_params), ("capsule_data", self.capsule_data),
+            ("convex_translation", self.convex_translation), ("convex_offsets", self.convex_offsets),
+            ("convex_data", self.convex_data), ("triangles", self.triangles), ("triangle_params", self.triangle_params),
+            ("triangle_data", self.triangle_data), ("cell_start", self.cell_start), ("cell_items", self.cell_items),
+            ("cell_ranges", self.cell_ranges), ("grid", self.grid), ("continuous", self.continuous),
+            ("mass_scale", self.mass_scale), ("meters_per_unit", self.meters_per_unit), ("virtual", self.virtual),
+            ("virtual_weights", self.virtual_weights), ("cloth_triangles", self.cloth_triangles), ("owners", self.owners),
+            ("face_margin", self.face_margin), ("face_record", self.face_record),
         )
 
     def end_fused_frame(self) -> None:

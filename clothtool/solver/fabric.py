@@ -57,6 +57,11 @@ def constraint_compliance(model) -> np.ndarray:
         return np.where(k > 0, 1.0 / k, np.inf)
 
 
+# The fabric's line in the frame function (clothtool.solver.framefn) and its argument names.
+_FUSED_NAMES = ("indices", "rest_length", "per_constraint", "set_offsets", "phase_set_offsets", "params",
+                "layer_group_offsets", "group_phase_offsets")
+_FUSED_LINES = ("{fabric}(" + ", ".join("{%s}" % name for name in _FUSED_NAMES) + ", cur)",)
+
 class FabricStage(Stage):
     name = "fabric"
 
@@ -121,10 +126,4 @@ class FabricStage(Stage):
         self.kernel(*self._arguments(), self.solver.state.cur)
 
     def fused_call(self) -> FusedCall:
-        names = ("indices", "rest_length", "per_constraint", "set_offsets", "phase_set_offsets", "params",
-                 "layer_group_offsets", "group_phase_offsets")
-        return FusedCall(
-            ("{fabric}(" + ", ".join("{%s}" % name for name in names) + ", cur)",),
-            dict(zip(names, self._arguments())),
-            {"fabric": self.kernel},
-        )
+        return FusedCall(_FUSED_LINES, dict(zip(_FUSED_NAMES, self._arguments())), {"fabric": self.kernel})
