@@ -13,7 +13,6 @@ from tests.reference import collide_mesh as mesh_ref
 from tests.reference import collide_shapes as shapes
 
 
-
 def _weighted(state, a, b, c, wa, wb, wc):
     s = np.asarray(state, np.float64)
     return tuple(wa * s[a, :3] + wb * s[b, :3] + wc * s[c, :3])
