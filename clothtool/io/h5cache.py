@@ -40,7 +40,7 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
-from clothtool.io.h5chunks import ENCODED, SeriesChunks, deflate, snapshot, write_chunk
+from clothtool.io.h5chunks import ENCODED, FrameChunks, SeriesChunks, deflate, snapshot
 from clothtool.io.h5safe import check_hdf5_file, check_layout, read_dataset
 from clothtool.io.hdf5_files import create_hdf5
 
@@ -71,9 +71,12 @@ class H5CacheWriter(StreamedCacheWriter):
         self._velocities = False
         # Per cloth (P, v or None, extent series, [(stats field, series)]); per collider its
         # xform series: opened once (looking a path up costs as much as writing a row).
+        # ``frame_count`` is rewritten every frame from one array, its HDF5 type given.
         self._cloth_rows: list[tuple] = []
         self._collider_rows: list[SeriesChunks] = []
         self._frame_count_attr = None  # the root attribute rewritten every frame, opened once
+        self._frame_count_value = np.zeros((), np.int64)
+        self._frame_count_type = None
         self._last_extents: list[np.ndarray] = []  # per cloth, of the last frame flushed
 
     def write_header(self, header: CacheHeader) -> None:
@@ -104,14 +107,20 @@ class H5CacheWriter(StreamedCacheWriter):
         return dataset
 
     def _open_rows(self, f, header: CacheHeader) -> None:
-        """The per-frame datasets, opened once for every frame to write into."""
+        """The per-frame datasets and the root attribute ``frame_count``, opened once for
+        every frame to write into."""
+        from h5py import h5a, h5t
+
+        self._frame_count_attr = h5a.open(f.id, b"frame_count")
+        self._frame_count_type = h5t.NATIVE_INT64
         self._velocities = "velocities" in header.attributes
         stats_fields = header.stats_fields if "stats" in header.attributes else ()
         self._cloth_rows = []
         for cloth in header.cloths:
             g = f["cloth"][cloth.name]
             stats = [(field, SeriesChunks(g["stats"][field])) for field in stats_fields]
-            self._cloth_rows.append((g["P"], g["v"] if self._velocities else None, SeriesChunks(g["extent"]), stats))
+            velocities = FrameChunks(g["v"]) if self._velocities else None
+            self._cloth_rows.append((FrameChunks(g["P"]), velocities, SeriesChunks(g["extent"]), stats))
         if writes_colliders(header):
             self._collider_rows = [SeriesChunks(f["collider"][collider.name]["xform"]) for collider in header.colliders]
 
@@ -222,7 +231,7 @@ class H5CacheWriter(StreamedCacheWriter):
             xform.write(k, np.asarray(frame.collider_xforms[i], np.float64))
         for i in sorted(moved):
             self._store(self._collider_points(i, k, moved[i].shape), k, next(chunk))
-        self._frame_count().write(np.array(k + 1, np.int64))  # h5py's attrs[...] = recreates it: 4x the cost
+        self._write_frame_count(k + 1)
         # Flushing every frame keeps memory flat and leaves a readable file after a crash.
         self._file.flush()
 
@@ -232,21 +241,19 @@ class H5CacheWriter(StreamedCacheWriter):
         g = self._file["collider"][self._header.colliders[i].name]
         if k == 0:
             self._series(g, "P", shape, np.float32, units.lengths(self._header.meters_per_unit), per_frame_chunk=True)
-        return g["P"]
+        return FrameChunks(g["P"])
 
-    def _frame_count(self):
-        """The root attribute ``frame_count``, opened once."""
-        if self._frame_count_attr is None:
-            from h5py import h5a
+    def _write_frame_count(self, count: int) -> None:
+        """Rewrite the root attribute ``frame_count`` in place (h5py's ``attrs[...] =``
+        recreates it: 4x the cost; with its type named h5py does not derive one per call)."""
+        self._frame_count_value[()] = count
+        self._frame_count_attr.write(self._frame_count_value, mtype=self._frame_count_type)
 
-            self._frame_count_attr = h5a.open(self._file.id, b"frame_count")
-        return self._frame_count_attr
-
-    def _store(self, dataset, k: int, stored) -> None:
+    def _store(self, chunks: FrameChunks, k: int, stored) -> None:
         if self._compression in ENCODED:
-            write_chunk(dataset, k, stored)
+            chunks.write(k, stored)
         else:
-            _append(dataset, k, stored)
+            _append(chunks.dataset, k, stored)
 
     def _release(self, keep: bool) -> bool:
         # Flushed every frame, the file holds all it should: trimmed and closed either way.
