@@ -77,8 +77,10 @@ def zlib_stream(planes: np.ndarray) -> bytes:
         block = flat[start : min(start + _STORED_BLOCK, split)]
         # BFINAL 0, BTYPE 00 (stored), padded to the byte; then LEN and its complement NLEN.
         parts += [struct.pack("<BHH", 0, len(block), len(block) ^ 0xFFFF), block]
-    # raw deflate in one call: the bytes of a compressobj's compress + flush, 4 us sooner
-    parts += [isal_zlib.compress(flat[split:], DEFLATE_LEVEL, -isal_zlib.MAX_WBITS), struct.pack(">I", isal_zlib.adler32(flat))]
+    # a stream, not isal's one-shot compress: that gives other bytes for small planes, and
+    # files from the same bake stay the same bytes as before
+    deflater = isal_zlib.compressobj(DEFLATE_LEVEL, isal_zlib.DEFLATED, -isal_zlib.MAX_WBITS)  # raw deflate
+    parts += [deflater.compress(flat[split:]), deflater.flush(), struct.pack(">I", isal_zlib.adler32(flat))]
     return b"".join(parts)
 
 
