@@ -27,6 +27,7 @@ from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import FramePath, Pose
 from clothtool.solver.groupmeter import make_meters
 from clothtool.solver.iteration import FramePlan
+from clothtool.solver.kernels.rows import gather_xyz
 from clothtool.solver.model import build_model
 from clothtool.workload import iterations_per_frame
 
@@ -476,7 +477,18 @@ def _with_colliders(scene: Scene, frame: FrameData) -> FrameData:
 
 def _points_in_vertex_order(solvers: list[Integrator]) -> tuple[np.ndarray, ...]:
     """Each cloth's world points as the cache presents them: in its mesh's vertex order."""
-    return tuple(s.model.fabric.in_vertex_order(s.world_points()) for s in solvers)
+    return tuple(_cache_rows(s, s.world_points()) for s in solvers)
+
+
+def _cache_rows(solver: Integrator, values: np.ndarray) -> np.ndarray:
+    """f32 (n,3) per-particle ``values`` as a cache stores them: in the mesh's vertex order,
+    gathered and converted in one pass (the writers take float32)."""
+    order = solver.model.fabric.vertex_particle
+    if order is None:
+        return np.ascontiguousarray(values, np.float32)
+    rows = np.empty((order.shape[0], 3), np.float32)
+    gather_xyz(values, order, rows)
+    return rows
 
 
 def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> FrameData:
@@ -486,7 +498,7 @@ def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> Frame
         for solver, cloth in zip(solvers, scene.cloths):
             v = np.zeros((solver.model.particle_count, 3), np.float32)
             v[solver.model.inv_mass > 0] = cloth.initial_velocity
-            velocities.append(solver.model.fabric.in_vertex_order(v))
+            velocities.append(_cache_rows(solver, v))
         velocities = tuple(velocities)
     stats = None
     if "stats" in attributes:
@@ -497,7 +509,7 @@ def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> Frame
 def _frame_data(frame, solvers, plans, per_cloth, attributes) -> FrameData:
     velocities = None
     if "velocities" in attributes:
-        velocities = tuple(s.model.fabric.in_vertex_order(s.world_velocities(p.h)) for s, p in zip(solvers, plans))
+        velocities = tuple(_cache_rows(s, s.world_velocities(p.h)) for s, p in zip(solvers, plans))
     stats = None
     if "stats" in attributes:
         stats = tuple(_frame_stats_fields(per_cloth[s.model.name]) for s in solvers)

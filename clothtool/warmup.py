@@ -23,8 +23,10 @@ import numpy as np
 
 from clothtool.bake import BakeOptions, bake
 from clothtool.errors import UnstableError
+from clothtool.io.extent_kernel import frame_extent
 from clothtool.io.h5chunks import shuffle
 from clothtool.loading import load_scene
+from clothtool.solver.kernels.rows import gather_xyz
 
 GRID = 6  # particles per side of the warm-up cloths
 
@@ -182,9 +184,13 @@ def warm_up_kernels(
             seconds = time.perf_counter() - start
             total += seconds
             report(variant.label, seconds)
-    # the null writer compiles nothing of the caches': the gzip chunks' shuffle kernel too
+    # the null writer compiles nothing of the caches': the gzip chunks' shuffle kernel, the
+    # extents and the gather of frame rows into vertex order (from either state precision) too
     start = time.perf_counter()
     shuffle(np.zeros((1, 3), np.float32))
+    frame_extent(np.zeros((1, 3), np.float32))
+    for precision in (np.float32, np.float64):
+        gather_xyz(np.zeros((1, 3), precision), np.zeros(1, np.int64), np.zeros((1, 3), np.float32))
     seconds = time.perf_counter() - start
-    report("HDF5 gzip chunks", seconds)
+    report("cache frames (HDF5 gzip chunks, extents, vertex order)", seconds)
     return total + seconds

@@ -17,10 +17,8 @@ and frame checks, the ``CacheReader`` base, the summary text) lives in
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import json
 import os
-from concurrent.futures import Future
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +40,7 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
-from clothtool.io.h5chunks import ENCODED, SeriesChunks, deflate, snapshot, write_chunk
+from clothtool.io.h5chunks import ENCODED, FrameChunks, SeriesChunks, deflate, snapshot
 from clothtool.io.h5safe import check_hdf5_file, check_layout, read_dataset
 from clothtool.io.hdf5_files import create_hdf5
 
@@ -70,10 +68,15 @@ class H5CacheWriter(StreamedCacheWriter):
         self._filters = _COMPRESSION[options.compression]
         self._compression = options.compression
         self._file = None
-        self._pending: _FrameJob | None = None  # the frame accepted but not yet written
-        self._datasets: dict[str, object] = {}  # per-frame datasets by path, opened once
+        self._velocities = False
+        # Per cloth (P, v or None, extent series, [(stats field, series)]); per collider its
+        # xform series: opened once (looking a path up costs as much as writing a row).
+        # ``frame_count`` is rewritten every frame from one array, its HDF5 type given.
+        self._cloth_rows: list[tuple] = []
+        self._collider_rows: list[SeriesChunks] = []
         self._frame_count_attr = None  # the root attribute rewritten every frame, opened once
-        self._series_writers: dict[str, SeriesChunks] = {}  # small per-frame series by path
+        self._frame_count_value = np.zeros((), np.int64)
+        self._frame_count_type = None
         self._last_extents: list[np.ndarray] = []  # per cloth, of the last frame flushed
 
     def write_header(self, header: CacheHeader) -> None:
@@ -91,6 +94,7 @@ class H5CacheWriter(StreamedCacheWriter):
                 for collider in header.colliders:
                     self._create_collider(f.create_group(f"collider/{collider.name}"), collider)
             f.flush()
+            self._open_rows(f, header)
         except (OSError, RuntimeError) as exc:
             raise self._fail(exc, "writing the header") from None
 
@@ -101,6 +105,24 @@ class H5CacheWriter(StreamedCacheWriter):
         dataset = group.create_dataset(name, shape=(0, *shape), maxshape=(None, *shape), dtype=dtype, chunks=chunks, **filters)
         dataset.attrs["units"] = unit
         return dataset
+
+    def _open_rows(self, f, header: CacheHeader) -> None:
+        """The per-frame datasets and the root attribute ``frame_count``, opened once for
+        every frame to write into."""
+        from h5py import h5a, h5t
+
+        self._frame_count_attr = h5a.open(f.id, b"frame_count")
+        self._frame_count_type = h5t.NATIVE_INT64
+        self._velocities = "velocities" in header.attributes
+        stats_fields = header.stats_fields if "stats" in header.attributes else ()
+        self._cloth_rows = []
+        for cloth in header.cloths:
+            g = f["cloth"][cloth.name]
+            stats = [(field, SeriesChunks(g["stats"][field])) for field in stats_fields]
+            velocities = FrameChunks(g["v"]) if self._velocities else None
+            self._cloth_rows.append((FrameChunks(g["P"]), velocities, SeriesChunks(g["extent"]), stats))
+        if writes_colliders(header):
+            self._collider_rows = [SeriesChunks(f["collider"][collider.name]["xform"]) for collider in header.colliders]
 
     def _create_cloth(self, g, cloth: ClothTopology, header: CacheHeader) -> None:
         n, mpu = cloth.particle_count, header.meters_per_unit
@@ -142,129 +164,100 @@ class H5CacheWriter(StreamedCacheWriter):
             _constant(g, "rest_points", as_points(collider.rest_points), units.lengths(mpu))
 
     def write_frame(self, frame: FrameData) -> None:
-        """Queue ``frame``: its chunks are encoded now (the caller may change its arrays next),
-        and it is written and flushed by the next ``write_frame`` or by ``commit``. A failed
-        write or encoding raises there, naming the frame; the frames flushed before it stay
-        whole."""
+        """Write ``frame`` and flush it: when this returns, the file holds it whole. Its chunks
+        are all encoded before any of it is written; a failed encoding or write raises naming
+        the frame, and the frames flushed before it stay whole."""
         header = self._check_next_frame(frame)
         moved = {}
         if writes_colliders(header):  # checked before anything of the frame is written
             moved = deformed_collider_points(header, frame, self._deforming if self.frames_written else None, self.path)
-        job = self._encode(frame, moved)  # the frame is copied: the caller may change its arrays
-        self._write_pending()
-        self._pending = job
-        self._deforming = set(moved)
-        self.frames_written += 1  # counted while queued; uncounted while its write is under way
-
-    def _encode(self, frame: FrameData, moved: dict[int, np.ndarray]) -> "_FrameJob":
-        """The frame's rows and its per-frame chunks, encoded."""
-        header = self._header
-        job = _FrameJob(frame.frame, self.frames_written)
-        for i, cloth in enumerate(header.cloths):
-            points = as_points(frame.points[i])
-            job.extents.append(points_extent(points))
-            job.chunks.append((f"cloth/{cloth.name}/P", self._submit(points)))
-            if "velocities" in header.attributes:
-                job.chunks.append((f"cloth/{cloth.name}/v", self._submit(as_points(frame.velocities[i]))))
-            job.rows.append((f"cloth/{cloth.name}/extent", job.extents[-1]))
-            if "stats" in header.attributes and header.stats_fields:
-                for field in header.stats_fields:
-                    job.rows.append((f"cloth/{cloth.name}/stats/{field}", float(frame.stats[i][field])))
-        if writes_colliders(header):
-            for i, collider in enumerate(header.colliders):
-                job.rows.append((f"collider/{collider.name}/xform", np.asarray(frame.collider_xforms[i], np.float64)))
-                if i in moved:
-                    job.colliders.append((collider.name, moved[i].shape, self._submit(moved[i])))
-        return job
-
-    def _submit(self, array: np.ndarray):
-        """A per-frame chunk's stored bytes: a done Future when clothtool encodes it (holding
-        the encoding's error, met when the frame is written), else a copy of the array.
-
-        The encoding runs here, on the caller's thread: it costs ~0.05 ms per 128^2 chunk
-        (h5chunks), less than handing it to a worker thread did in wake-ups and GIL handoffs."""
-        compression = self._compression
-        if compression not in ENCODED:
-            return np.array(array, copy=True)
-        encoded = Future()
+        chunks, extents = self._encode(frame, moved)
+        k = self.frames_written
         try:
-            encoded.set_result(deflate(snapshot(array, compression), compression))
-        except Exception as exc:
-            encoded.set_exception(exc)
-        return encoded
-
-    def _write_pending(self) -> None:
-        """Write and flush the queued frame, if any."""
-        job, self._pending = self._pending, None
-        if job is None:
-            return
-        self.frames_written -= 1  # not whole in the file until flushed
-        try:
-            self._write_job(job)
+            self._write_rows(frame, k, chunks, extents, moved)
         except (OSError, RuntimeError) as exc:  # h5py raises RuntimeError when a flush fails
-            raise self._fail(exc, f"writing frame {job.frame}") from None
-        self._last_extents = job.extents
-        self.frames_written += 1
+            raise self._fail(exc, f"writing frame {frame.frame}") from None
+        self._last_extents = extents
+        self._deforming = set(moved)
+        self.frames_written = k + 1
 
-    def _write_job(self, job: "_FrameJob") -> None:
-        f, k = self._file, job.index
-        for where, stored in job.chunks:
-            self._store(self._dataset(where), k, stored, job.frame)
-        for where, value in job.rows:
-            self._series_chunks(where).write(k, value)
-        for name, shape, stored in job.colliders:
-            g = f["collider"][name]
-            if k == 0:  # created on the first frame: only deforming meshes get one
-                self._series(g, "P", shape, np.float32, units.lengths(self._header.meters_per_unit), per_frame_chunk=True)
-            self._store(g["P"], k, stored, job.frame)
-        self._frame_count().write(np.array(k + 1, np.int64))  # h5py's attrs[...] = recreates it: 4x the cost
-        # Flushing every frame keeps memory flat and leaves a readable file after a crash.
-        f.flush()
+    def _encode(self, frame: FrameData, moved: dict[int, np.ndarray]) -> tuple[list, list]:
+        """The frame's per-frame chunks as stored (in the order ``_write_rows`` takes them:
+        per cloth P then v, then the deforming colliders' points) and each cloth's extent."""
+        from clothtool.io.extent_kernel import frame_extent
 
-    def _frame_count(self):
-        """The root attribute ``frame_count``, opened once."""
-        if self._frame_count_attr is None:
-            from h5py import h5a
-
-            self._frame_count_attr = h5a.open(self._file.id, b"frame_count")
-        return self._frame_count_attr
-
-    def _series_chunks(self, where: str) -> SeriesChunks:
-        """The writer of the small per-frame series at ``where``, made once."""
-        series = self._series_writers.get(where)
-        if series is None:
-            series = self._series_writers[where] = SeriesChunks(self._file[where])
-        return series
-
-    def _dataset(self, where: str):
-        """The open dataset at ``where`` (looking a path up costs as much as writing a row)."""
-        dataset = self._datasets.get(where)
-        if dataset is None:
-            dataset = self._datasets[where] = self._file[where]
-        return dataset
-
-    def _store(self, dataset, k: int, stored, frame: int) -> None:
-        if isinstance(stored, np.ndarray):
-            _append(dataset, k, stored)
-            return
+        chunks, extents = [], []
+        velocities = frame.velocities if self._velocities else None
         try:
-            data = stored.result()
-        except Exception as exc:  # the encoding's error, met when the frame is written
+            for i in range(len(self._cloth_rows)):
+                points = as_points(frame.points[i])
+                extents.append(frame_extent(points))
+                chunks.append(self._stored(points))
+                if velocities is not None:
+                    chunks.append(self._stored(as_points(velocities[i])))
+            for i in sorted(moved):
+                chunks.append(self._stored(moved[i]))
+        except Exception as exc:  # the encoding's error: nothing of the frame is in the file
             self._failed = True
-            self._error = ClothtoolError(f"{self.path}: compressing frame {frame} failed ({type(exc).__name__}: {exc}); bake it again")
+            self._error = ClothtoolError(f"{self.path}: compressing frame {frame.frame} failed ({type(exc).__name__}: {exc}); bake it again")
             raise self._error from None
-        write_chunk(dataset, k, data)
+        return chunks, extents
+
+    def _stored(self, array: np.ndarray):
+        """A per-frame chunk as ``_store`` takes it: for gzip the encoded bytes (h5chunks);
+        otherwise the array itself, written in this call (before the caller can change it):
+        as it is for "none", through h5py's filter for lzf.
+
+        The encoding runs on the caller's thread: it costs ~0.03 ms per 128^2 chunk, less
+        than handing it to a worker thread did in wake-ups and GIL handoffs (and the CPU time
+        is the same on any thread)."""
+        if self._compression != "gzip":
+            return array
+        return deflate(snapshot(array, "gzip"), "gzip")
+
+    def _write_rows(self, frame: FrameData, k: int, chunks: list, extents: list, moved: dict[int, np.ndarray]) -> None:
+        """Row ``k`` of every per-frame dataset, then the frame count, then a flush (in the
+        order of the first version: the same frames give the same bytes)."""
+        chunk = iter(chunks)
+        for points, velocities, _, _ in self._cloth_rows:
+            self._store(points, k, next(chunk))
+            if velocities is not None:
+                self._store(velocities, k, next(chunk))
+        for i, ((_, _, extent, stats), box) in enumerate(zip(self._cloth_rows, extents)):
+            extent.write(k, box)
+            for field, series in stats:
+                series.write(k, float(frame.stats[i][field]))
+        for i, xform in enumerate(self._collider_rows):
+            xform.write(k, np.asarray(frame.collider_xforms[i], np.float64))
+        for i in sorted(moved):
+            self._store(self._collider_points(i, k, moved[i].shape), k, next(chunk))
+        self._write_frame_count(k + 1)
+        # Flushing every frame keeps memory flat and leaves a readable file after a crash.
+        self._file.flush()
+
+    def _collider_points(self, i: int, k: int, shape: tuple):
+        """The deforming mesh collider ``i``'s points dataset, created on the first frame (only
+        deforming meshes get one)."""
+        g = self._file["collider"][self._header.colliders[i].name]
+        if k == 0:
+            self._series(g, "P", shape, np.float32, units.lengths(self._header.meters_per_unit), per_frame_chunk=True)
+        return FrameChunks(g["P"])
+
+    def _write_frame_count(self, count: int) -> None:
+        """Rewrite the root attribute ``frame_count`` in place (h5py's ``attrs[...] =``
+        recreates it: 4x the cost; with its type named h5py does not derive one per call)."""
+        self._frame_count_value[()] = count
+        self._frame_count_attr.write(self._frame_count_value, mtype=self._frame_count_type)
+
+    def _store(self, chunks: FrameChunks, k: int, stored) -> None:
+        if self._compression in ENCODED:
+            chunks.write(k, stored)
+        else:
+            _append(chunks.dataset, k, stored)
 
     def _release(self, keep: bool) -> bool:
         # Flushed every frame, the file holds all it should: trimmed and closed either way.
-        if self._file is not None and not self._failed:
-            try:
-                self._write_pending()  # the queued frame is whole once written and flushed
-            except ClothtoolError:
-                pass  # failed: the file is closed untrusted below
-        self._pending = None
-        self._datasets.clear()
-        self._series_writers.clear()
+        self._cloth_rows, self._collider_rows = [], []
         self._frame_count_attr = None
         f, self._file = self._file, None
         if f is None:
@@ -307,18 +300,6 @@ class H5CacheWriter(StreamedCacheWriter):
 def _constant(group, name: str, data: np.ndarray, unit: str) -> None:
     """A dataset written once, with what its numbers mean."""
     group.create_dataset(name, data=data).attrs["units"] = unit
-
-
-@dataclasses.dataclass
-class _FrameJob:
-    """One accepted frame: what its write puts in the file, its chunks encoded."""
-
-    frame: int
-    index: int  # its row in the per-frame datasets
-    extents: list = dataclasses.field(default_factory=list)  # per cloth
-    chunks: list = dataclasses.field(default_factory=list)  # (dataset path, Future[bytes] | array)
-    rows: list = dataclasses.field(default_factory=list)  # (dataset path, value)
-    colliders: list = dataclasses.field(default_factory=list)  # (name, points shape, Future | array)
 
 
 def _append(dataset, k: int, value) -> None:

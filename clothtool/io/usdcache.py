@@ -257,25 +257,29 @@ class UsdCacheWriter(UsdLayerWriter):
         self._deforming = set(moved)
 
     def _write_cloths(self, frame: FrameData, time: float, first: bool) -> None:
+        from clothtool.io.extent_kernel import frame_extent  # numba: writers only, never the reader
+
         layer = self._layer
         for i, paths in enumerate(self._cloth_paths):
             points = as_points(frame.points[i])
             # FromNumpy: one memcpy (1 ms per 100k points); building from a list costs 100x more.
             _sample(layer, paths["points"], time, Vt.Vec3fArray.FromNumpy(points), first)
-            _sample(layer, paths["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(points)), first)
+            _sample(layer, paths["extent"], time, Vt.Vec3fArray.FromNumpy(frame_extent(points)), first)
             if "velocities" in paths:
                 _sample(layer, paths["velocities"], time, Vt.Vec3fArray.FromNumpy(as_points(frame.velocities[i])), first)
             for field, path in paths["stats"].items():
                 layer.SetTimeSample(path, time, float(frame.stats[i][field]))
 
     def _write_colliders(self, frame: FrameData, time: float, first: bool, moved: dict[int, np.ndarray]) -> None:
+        from clothtool.io.extent_kernel import frame_extent
+
         layer = self._layer
         for i, paths in enumerate(self._collider_paths):
             matrix = Gf.Matrix4d(np.asarray(frame.collider_xforms[i], np.float64).tolist())
             _sample(layer, paths["xform"], time, matrix, first)
             if i in moved:  # deforming mesh colliders only; a static one keeps its rest points
                 layer.SetTimeSample(paths["points"], time, Vt.Vec3fArray.FromNumpy(moved[i]))
-                layer.SetTimeSample(paths["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(moved[i])))
+                layer.SetTimeSample(paths["extent"], time, Vt.Vec3fArray.FromNumpy(frame_extent(moved[i])))
 
 
 class _FailedSave(Exception):

@@ -69,8 +69,8 @@ def test_topology_is_written_without_faces_attribute(out_dir):
 
 
 def test_each_frame_is_flushed(out_dir):
-    """A copy of the temporary file taken mid-bake (as after a crash) reads back its frames:
-    all but the last one given, which compresses while the next frame simulates."""
+    """A copy of the temporary file taken mid-bake (as after a crash) reads back every frame
+    given so far: write_frame returns once its frame is flushed."""
     header = make_header()
     path = out_dir / "shot.h5"
     with H5CacheWriter(path, CacheOptions()) as writer:
@@ -81,8 +81,8 @@ def test_each_frame_is_flushed(out_dir):
         shutil.copyfile(tmp, out_dir / "crash.h5")
         writer.commit()
     with read_h5_cache(out_dir / "crash.h5") as cache:
-        assert cache.frames == [3, 4] and cache.header.end_frame == 4
-        np.testing.assert_array_equal(cache.points("skirt", 4), make_frame(header, 4).points[0])
+        assert cache.frames == [3, 4, 5] and cache.header.end_frame == 5
+        np.testing.assert_array_equal(cache.points("skirt", 5), make_frame(header, 5).points[0])
     with read_h5_cache(path) as cache:
         assert cache.frames == [3, 4, 5]
 

@@ -1,11 +1,11 @@
-"""copy_xyz / xyz_velocity against tests/reference/rows.py."""
+"""copy_xyz / xyz_velocity / gather_xyz against tests/reference/rows.py."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
+from clothtool.solver.kernels.rows import copy_xyz, gather_xyz, xyz_velocity
 from tests.kernels._data import particles
 from tests.reference import rows as ref
 
@@ -29,3 +29,24 @@ def test_xyz_velocity_matches_reference(n):
     # the same float32 operations in the same order: equal bit for bit
     np.testing.assert_array_equal(out, ref.xyz_velocity(cur, prev, h, out))
     assert np.abs(out).max(initial=1.0) > 0.1  # speeds of ~0.02 / (1/300)
+
+
+@pytest.mark.parametrize("rows_dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("n", [0, 1, 37])
+@pytest.mark.parametrize("width", [3, 4])
+def test_gather_xyz_matches_reference(n, rows_dtype, width):
+    """Particle rows (x, y, z[, w]) of either precision into vertex order, as float32."""
+    rng = np.random.default_rng(200 + n)
+    cur, _ = particles(rng, n)
+    rows = np.ascontiguousarray(cur[:, :width], rows_dtype) + rows_dtype(1e-9)  # float64 digits float32 rounds
+    order = rng.permutation(n).astype(np.int64)
+    out = np.full((n, 3), np.nan, np.float32)
+    gather_xyz(rows, order, out)
+    np.testing.assert_array_equal(out, ref.gather_xyz(rows, order, out))
+
+
+def test_gather_xyz_by_hand():
+    rows = np.array([[0.0, 1.0, 2.0, 9.0], [3.0, 4.0, 5.0, 9.0], [6.0, 7.0, 8.0, 9.0]])
+    out = np.zeros((3, 3), np.float32)
+    gather_xyz(rows, np.array([2, 0, 1]), out)
+    np.testing.assert_array_equal(out, [[6, 7, 8], [0, 1, 2], [3, 4, 5]])

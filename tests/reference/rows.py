@@ -15,3 +15,8 @@ def xyz_velocity(cur, prev, h, out):
     h = np.asarray(h)
     delta = np.asarray(cur)[:, :3].astype(h.dtype) - np.asarray(prev)[:, :3].astype(h.dtype)
     return (delta / h).astype(np.asarray(out).dtype)
+
+
+def gather_xyz(rows, order, out):
+    """Returns rows[order, :3] in out's dtype."""
+    return np.asarray(rows)[np.asarray(order), :3].astype(np.asarray(out).dtype)

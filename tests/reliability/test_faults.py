@@ -230,7 +230,7 @@ def small_disk(monkeypatch):
     writers' own calls, unchanged). Where a tmpfs can be mounted, the tests above fill a real disk."""
     import h5py
 
-    from clothtool.io import h5cache
+    from clothtool.io import h5chunks
 
     def give(room: int, flushes: int | None = None) -> SmallDisk:
         disk = SmallDisk(room, flushes)
@@ -248,14 +248,14 @@ def small_disk(monkeypatch):
             disk.check_flush()
             flush(file)
 
-        def chunk(dataset, k, data, write_chunk=h5cache.write_chunk):
-            disk.take(len(data))
-            write_chunk(dataset, k, data)
+        def chunk(chunks, k, data, write=h5chunks.FrameChunks.write):
+            disk.take(memoryview(data).nbytes)
+            write(chunks, k, data)
 
         monkeypatch.setattr(h5py.Dataset, "__setitem__", write)
         monkeypatch.setattr(h5py.Group, "create_dataset", create)
         monkeypatch.setattr(h5py.File, "flush", flush_file)
-        monkeypatch.setattr(h5cache, "write_chunk", chunk)
+        monkeypatch.setattr(h5chunks.FrameChunks, "write", chunk)
         return disk
 
     return give
@@ -291,16 +291,16 @@ def test_a_disk_full_at_the_final_flush_commits_nothing(scene_dir, out_dir, smal
     assert_whole_frames(out_dir / "x.partial.h5", scene, 6, complete=True)
 
 
-def test_a_disk_full_at_commit_names_the_queued_last_frame(scene_dir, out_dir, small_disk):
-    """The last frame given compresses while the bake goes on and is written by commit: a disk
-    full then fails that frame, and the frames flushed before it are kept."""
+def test_a_disk_full_on_the_last_frame_names_it_and_keeps_the_frames_before(scene_dir, out_dir, small_disk):
+    """The disk fills after frame 5 is flushed: writing the last frame fails, naming it, and
+    the five frames flushed before it are kept."""
     disk = small_disk(10**9)
 
-    def fill_the_disk_after_the_last_frame(done: int, total: int) -> None:
-        if done == total:
+    def fill_the_disk_before_the_last_frame(done: int, total: int) -> None:
+        if done == total - 1:
             disk.room = 0
 
-    options = BakeOptions(progress=fill_the_disk_after_the_last_frame)
+    options = BakeOptions(progress=fill_the_disk_before_the_last_frame)
     scene = scene_dir / "scene200.toml"
     with pytest.raises(ClothtoolError, match=r"x\.h5: disk full while writing frame 6 \(No space left on device\)") as failure:
         bake(load_scene(scene, frames=(1, 6)), out_dir / "x.h5", options)

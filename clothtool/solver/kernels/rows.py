@@ -2,7 +2,9 @@
 
 numpy copies ``cur[:, :3]`` element by element through its strided-copy loop: ~120 us for
 16k particles, 5% of a frame of the 128^2 benchmark cloth. These loops take ~16 us, and a
-bake writes every frame.
+bake writes every frame. ``gather_xyz`` puts rows into the mesh's vertex order (a cook
+that renumbers particles for locality) and into the cache's float32 in one pass: numpy's
+``take`` and ``astype`` took ~50 us, this ~15 us.
 """
 
 from __future__ import annotations
@@ -26,3 +28,13 @@ def xyz_velocity(cur, prev, h, out):
         out[i, 0] = (cur[i, 0] - prev[i, 0]) / h
         out[i, 1] = (cur[i, 1] - prev[i, 1]) / h
         out[i, 2] = (cur[i, 2] - prev[i, 2]) / h
+
+
+@kernel
+def gather_xyz(rows, order, out):
+    """out[v] = rows[order[v], :3] in out's dtype: particle rows into the mesh's vertex order."""
+    for v in range(order.shape[0]):
+        i = order[v]
+        out[v, 0] = rows[i, 0]
+        out[v, 1] = rows[i, 1]
+        out[v, 2] = rows[i, 2]
