@@ -1,11 +1,13 @@
 """Reference for clothtool.solver.kernels.selfcollide, in float64 numpy.
 
 ``collide_points`` is brute force: every own particle against every point, O(n m), with no
-grid at all, so that a grid that misses a neighbour (or finds one twice) shows up. The rule
-(from NvCloth's self-collision and the kernel module's docstring): a pair (i, j) closer than
-its distance D (segment_distance of j's cloth; own pairs also need a rest distance of at
-least D) pushes i by c_ij = (x_i - x_j)(D/|x_i - x_j| - 1) w_i/(w_i + w_j); i moves by the
-stiffness times the average of its c_ij weighted by the penetrations D - |x_i - x_j|.
+grid and no neighbour list at all, so that a list that misses a pair (or holds one twice)
+shows up. The rule (from NvCloth's self-collision and the kernel module's docstring): a pair
+(i, j) closer than its distance D (segment_distance of j's cloth; own pairs also need a rest
+distance of at least D) pushes i by c_ij = (x_i - x_j)(D/|x_i - x_j| - 1) w_i/(w_i + w_j);
+i moves by the stiffness times the average of its c_ij weighted by the penetrations
+D - |x_i - x_j|. The list's pieces (``_list_rows`` and what uses it) are brute force too: a
+row is every point within its distance + skin, sorted.
 """
 
 from __future__ import annotations
@@ -64,13 +66,121 @@ def build_grid(points, inv_cell, bucket_start, order, sorted_points, sorted_cell
     )
 
 
-def collide_points(
-    sorted_points, sorted_cell, bucket_start, order, rest, point_segment, segment_distance, inv_cell, stiffness, cur
+REBUILD_FRACTION = 0.45
+
+
+def _displaced(points, anchor, limit):
+    """Whether some point lies farther than ``limit`` from its anchor (or is not finite)."""
+    e = np.asarray(points, np.float64)[:, :3] - np.asarray(anchor, np.float64)[:, :3]
+    return bool(np.any(~((e * e).sum(axis=1) <= float(limit) ** 2)))
+
+
+def _row(i, points, skin, rest, point_segment, segment_distance, own):
+    """Row i of the list, ascending: the points within their distance + skin of point i,
+    less i, points whose segment keeps no distance and own particles closer than the
+    distance at rest."""
+    points = np.asarray(points, np.float64)
+    distance = np.asarray(segment_distance, np.float64)[np.asarray(point_segment)]
+    d = np.linalg.norm(points[i, :3] - points[:, :3], axis=1)
+    listed = (d < distance + float(skin)) & (distance > 0.0)
+    listed[i] = False
+    rest = np.asarray(rest, np.float64)
+    listed[:own] &= np.linalg.norm(rest[i] - rest, axis=1) >= distance[:own]
+    return np.flatnonzero(listed)
+
+
+def _list_rows(
+    first, points, inv_cell, skin, bucket_start, order, sorted_points, sorted_cell, rest, point_segment,
+    segment_distance, own, row_start, row_split, pairs,
 ):
-    """Brute force over all pairs: the grid is used only to put the points back in index
-    order (point order[k] is sorted_points[k]). Returns cur as a float64 copy."""
-    points = np.empty((np.asarray(order).shape[0], 4))
-    points[np.asarray(order)] = np.asarray(sorted_points, np.float64)
+    """Returns (end, row_start, row_split, pairs): rows first.. laid out from the start of a
+    buffer of pairs' capacity while they fit (end = the first row that did not), as copies."""
+    row_start, row_split, pairs = np.array(row_start), np.array(row_split), np.array(pairs)
+    p = 0
+    for i in range(first, own):
+        row = _row(i, points, skin, rest, point_segment, segment_distance, own)
+        row_start[i] = p
+        if p + row.size > pairs.shape[0]:
+            return i, row_start, row_split, pairs
+        pairs[p : p + row.size] = row
+        row_split[i] = p + np.searchsorted(row, i, side="right")
+        p += row.size
+        row_start[i + 1] = p
+    return own, row_start, row_split, pairs
+
+
+def _refresh_list(
+    points, anchor, skin, inv_cell, bucket_start, order, sorted_points, sorted_cell, rest, point_segment,
+    segment_distance, row_start, row_split, pairs, list_state,
+):
+    """Returns (end, rebuilt): as _list_rows from row 0 when the list must be rebuilt (not
+    complete, or a point moved more than REBUILD_FRACTION * skin), else (own, False)."""
+    own = np.asarray(row_start).shape[0] - 1
+    if list_state[0] == 1 and not _displaced(points, anchor, REBUILD_FRACTION * float(skin)):
+        return own, False
+    end = _list_rows(0, points, inv_cell, skin, bucket_start, order, sorted_points, sorted_cell, rest, point_segment,
+                     segment_distance, own, row_start, row_split, pairs)[0]
+    return end, True
+
+
+def _next_rows(
+    first, points, inv_cell, skin, bucket_start, order, sorted_points, sorted_cell, rest, point_segment,
+    segment_distance, row_start, row_split, pairs, list_state,
+):
+    """The row after the next chunk of rows from ``first``."""
+    own = np.asarray(row_start).shape[0] - 1
+    return _list_rows(first, points, inv_cell, skin, bucket_start, order, sorted_points, sorted_cell, rest,
+                      point_segment, segment_distance, own, row_start, row_split, pairs)[0]
+
+
+def _terms(i, js, points, point_segment, segment_distance):
+    """(sum of d_ij c_ij, sum of d_ij) over the points js of i's row (no rest filter here:
+    the row was filtered when listed)."""
+    points = np.asarray(points, np.float64)
+    distance = np.asarray(segment_distance, np.float64)[np.asarray(point_segment)[js]]
+    e = points[i, :3] - points[js, :3]
+    d = np.linalg.norm(e, axis=1)
+    active = (d < distance) & (d > 0.0)
+    e, d, distance, wj = e[active], d[active], distance[active], points[js][active, 3]
+    depth = distance - d
+    c = e * ((distance / d - 1.0) * points[i, 3] / (points[i, 3] + wj))[:, None]
+    return (depth[:, None] * c).sum(axis=0), depth.sum()
+
+
+def _pair_sums(first, end, points, row_start, row_split, pairs, point_segment, segment_distance, sums):
+    """Returns sums (float64 copy) with each listed pair's two shares added: rows
+    first..end-1, each pair (i, j > i) adding to i and, for an own j, to j."""
+    sums = np.array(sums, np.float64)
+    own = np.asarray(row_start).shape[0] - 1
+    for i in range(first, end):
+        for j in np.asarray(pairs)[row_split[i] : row_start[i + 1]]:
+            for a, b in ((i, j), (j, i)) if j < own else ((i, j),):
+                push, depth = _terms(a, np.array([b]), points, point_segment, segment_distance)
+                sums[a, :3] += push
+                sums[a, 3] += depth
+    return sums
+
+
+def _gather_rows(first, end, points, row_start, pairs, point_segment, segment_distance, stiffness, cur):
+    """Returns cur (float64 copy) with rows first..end-1 moved by their whole row's terms."""
+    out = np.array(cur, np.float64)
+    for i in range(first, end):
+        if points[i, 3] == 0.0:
+            continue
+        push, weight = _terms(i, np.asarray(pairs)[row_start[i] : row_start[i + 1]], points, point_segment,
+                              segment_distance)
+        if weight > 0.0:
+            out[i, :3] += float(stiffness) * push / weight
+    return out
+
+
+def collide_points(
+    points, anchor, skin, inv_cell, bucket_start, order, sorted_points, sorted_cell, rest, point_segment,
+    segment_distance, stiffness, row_start, row_split, pairs, list_state, sums, cur,
+):
+    """Brute force over all pairs, from ``points`` (no list, no grid). Returns cur as a
+    float64 copy."""
+    points = np.asarray(points, np.float64)
     rest = np.asarray(rest, np.float64)
     out = np.array(cur, np.float64)
     own = out.shape[0]
