@@ -34,9 +34,10 @@ from clothtool.solver.stage import Stage
 _EYE = np.eye(3, dtype=np.float32)
 _ZERO = np.zeros(3, np.float32)
 # the list's skin, as a fraction of the largest distance: a wider skin lists more pairs (read
-# at every iteration) and a narrower one rebuilds the list more often. Lattice neighbours
-# of a sheet cooked at 4/3 of the distance are listed only once compressed by 10% or more
-SKIN_FRACTION = 0.2
+# at every iteration) and makes the grid's cells larger, a narrower one rebuilds the list more
+# often. 0.3 was the cheapest of 0.1 / 0.2 / 0.3 / 0.5 on benchmarks/nvcloth_table.py's
+# self-collision sheets (64^2 and 128^2, distance 3/4 of the spacing)
+SKIN_FRACTION = 0.3
 # first capacity of the list, in entries per point (a flat sheet lists about 4 both ways)
 PAIRS_PER_POINT = 8
 
@@ -78,7 +79,7 @@ class SelfCollideStage(Stage):
         self.point_segment = np.repeat(np.arange(len(sizes), dtype=np.int32), sizes)
         largest = max(distances)
         self.skin = np.float32(SKIN_FRACTION * largest)
-        self.inv_cell = np.float32(0.5 / (largest + float(self.skin)))  # cells twice the list's reach
+        self.inv_cell = np.float32(1.0 / (largest + float(self.skin)))  # cells as large as the list's reach
         dtype = solver.state.cur.dtype
         self.points = np.zeros((total, 4), dtype)
         self.anchor = np.zeros((total, 4), dtype)
@@ -87,9 +88,11 @@ class SelfCollideStage(Stage):
         buckets = 1 << max(1, int(2 * total - 1).bit_length())  # a power of two >= 2 * total
         self.bucket_start = np.zeros(buckets + 1, np.int32)
         self.order = np.zeros(total, np.int32)
+        self.strides = np.zeros(2, np.int64)  # the grid's row and layer lengths, set at each build
         self.row_start = np.zeros(self.own + 1, np.int32)
         self.row_split = np.zeros(self.own, np.int32)
         self.pairs = np.zeros(max(PAIRS_PER_POINT * total, 1), np.int32)  # >= one entry per point
+        self.found = np.zeros((self.pairs.shape[0], 2), np.int32)  # the pairs a build found, once each
         self.list_state = np.zeros(2, np.int64)  # [list complete, entries needed]: none yet
         self.sums = np.zeros((self.own, 4), dtype)
         # all cores from parallel_threshold points, like the fabric's sets: a parallel kernel
@@ -111,6 +114,7 @@ class SelfCollideStage(Stage):
         needed = int(self.list_state[1])
         if needed > self.pairs.shape[0]:  # the last build did not fit: room for it and some more
             self.pairs = np.zeros(needed + needed // 2, np.int32)
+            self.found = np.zeros((self.pairs.shape[0], 2), np.int32)
 
     def warm_up(self) -> None:
         solver = self.solver
@@ -124,8 +128,8 @@ class SelfCollideStage(Stage):
     def _arguments(self, points, anchor, row_start, cur) -> tuple:
         return (
             points, anchor, self.skin, self.inv_cell, self.bucket_start, self.order, self.sorted_points,
-            self.sorted_cell, self.solver.model.rest_pos, self.point_segment, self.segment_distance, self.stiffness,
-            row_start, self.row_split, self.pairs, self.list_state, self.sums, cur,
+            self.sorted_cell, self.strides, self.solver.model.rest_pos, self.point_segment, self.segment_distance, self.stiffness,
+            row_start, self.row_split, self.pairs, self.found, self.list_state, self.sums, cur,
         )
 
     def _relative_pose(self, neighbour) -> tuple[np.ndarray, np.ndarray]:
@@ -154,8 +158,8 @@ class SelfCollideStage(Stage):
     def fused_call(self) -> FusedCall:
         # gather() without neighbours: the snapshot is a copy of the cloth's own particles
         names = ("points", "anchor", "skin", "inv_cell", "bucket_start", "order", "sorted_points", "sorted_cell",
-                 "rest_pos", "point_segment", "segment_distance", "stiffness", "row_start", "row_split", "pairs",
-                 "list_state", "sums")
+                 "strides", "rest_pos", "point_segment", "segment_distance", "stiffness", "row_start", "row_split", "pairs",
+                 "found", "list_state", "sums")
         values = self._arguments(self.points, self.anchor, self.row_start, None)[:-1]
         return FusedCall(
             (*copy_lines("cur", "{points}"),
