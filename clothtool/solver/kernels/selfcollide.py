@@ -250,6 +250,10 @@ def _list_pairs(
     check = _runs_overlap(strides, mask)
     row = strides[0]
     layer = strides[1]
+    widest = zero
+    for segment in range(segment_distance.shape[0]):
+        widest = max(widest, segment_distance[segment])
+    widest2 = (widest + skin) * (widest + skin)  # no pair's reach is larger (rounding is monotone)
     capacity = min(pairs.shape[0], found.shape[0])
     for i in range(own + 1):
         row_start[i] = 0
@@ -260,38 +264,49 @@ def _list_pairs(
         xa = sorted_points[slot, 0]
         ya = sorted_points[slot, 1]
         za = sorted_points[slot, 2]
-        x0 = sorted_cell[slot, 0]
-        y0 = sorted_cell[slot, 1]
-        z0 = sorted_cell[slot, 2]
+        x0 = np.int64(sorted_cell[slot, 0])
+        y0 = np.int64(sorted_cell[slot, 1])
+        z0 = np.int64(sorted_cell[slot, 2])
+        base = x0 + y0 * row + z0 * layer  # this cell's number (its bucket, unmasked)
         for run in range(5):
             # run 0: this cell after this slot, then cell x0 + 1; runs 1-4: cells x0 - 1..x0 + 1
             # of rows (y0 + 1, z0), (y0 - 1, z0 + 1), (y0, z0 + 1), (y0 + 1, z0 + 1)
-            ty = y0 + (0 if run == 0 else (1 if run == 1 else run - 3))
-            tz = z0 + (1 if run >= 2 else 0)
-            tx = x0 if run == 0 else x0 - 1
-            b = (np.int64(tx) + np.int64(ty) * row + np.int64(tz) * layer) & mask  # _bucket, written out
+            dy = 0 if run == 0 else (1 if run == 1 else run - 3)
+            dz = 1 if run >= 2 else 0
+            dx = 0 if run == 0 else -1
+            b = (base + dx + dy * row + dz * layer) & mask
             cells = 2 if run == 0 else 3
             split = check or b + cells - 1 > mask  # cell by cell (shared or wrapping buckets)
             for part in range(cells if split else 1):
-                bucket = (b + part) & mask
-                begin = bucket_start[bucket]
-                end = bucket_start[bucket + 1] if split else bucket_start[b + cells]
+                if split:
+                    bucket = (b + part) & mask
+                    begin = bucket_start[bucket]
+                    end = bucket_start[bucket + 1]
+                else:
+                    begin = bucket_start[b]
+                    end = bucket_start[b + cells]
                 if run == 0 and part == 0:
                     begin = slot + 1
+                tx = x0 + dx + part
+                ty = y0 + dy
+                tz = z0 + dz
                 for k in range(begin, end):
-                    if check and (sorted_cell[k, 0] != tx + part or sorted_cell[k, 1] != ty or sorted_cell[k, 2] != tz):
+                    ex = xa - sorted_points[k, 0]  # the sign does not matter: only |e| does
+                    ey = ya - sorted_points[k, 1]
+                    ez = za - sorted_points[k, 2]
+                    d2 = ex * ex + ey * ey + ez * ez
+                    if not d2 < widest2:  # most candidates: out of every segment's reach
+                        continue
+                    if check and (sorted_cell[k, 0] != tx or sorted_cell[k, 1] != ty or sorted_cell[k, 2] != tz):
                         continue
                     c = order[k]
                     if a >= own and c >= own:
                         continue  # two neighbour points: no row wants them
-                    # the test of _list_rows, written out: most candidates are out of reach
+                    # the test of _list_rows, written out
                     i, j = (a, c) if a < own else (c, a)
                     distance = only_distance if one_segment else segment_distance[point_segment[j]]
                     reach = distance + skin
-                    ex = xa - sorted_points[k, 0]  # the sign does not matter: only |e| does
-                    ey = ya - sorted_points[k, 1]
-                    ez = za - sorted_points[k, 2]
-                    if distance == zero or not ex * ex + ey * ey + ez * ez < reach * reach:
+                    if distance == zero or not d2 < reach * reach:
                         continue
                     if j < own and _close_at_rest(i, j, rest, distance):
                         continue
