@@ -466,10 +466,12 @@ def _pair_sums(first, end, points, row_start, row_split, pairs, point_segment, s
             d2 = ex * ex + ey * ey + ez * ez
             if not (d2 < distance * distance and d2 > zero):
                 continue
+            wj = points[j, 3]
+            if wi + wj == zero:
+                continue  # two pinned particles: neither moves
             d = np.sqrt(d2)
             depth = distance - d
             push = depth * (distance / d - one)
-            wj = points[j, 3]
             factor = push * wi / (wi + wj)
             sums[i, 0] += ex * factor
             sums[i, 1] += ey * factor
