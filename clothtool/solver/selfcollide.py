@@ -38,8 +38,9 @@ _ZERO = np.zeros(3, np.float32)
 # often. 0.3 was the cheapest of 0.1 / 0.2 / 0.3 / 0.5 on benchmarks/nvcloth_table.py's
 # self-collision sheets (64^2 and 128^2, distance 3/4 of the spacing)
 SKIN_FRACTION = 0.3
-# first capacity of the list, in entries per point (a flat sheet lists about 4 both ways)
-PAIRS_PER_POINT = 8
+# first capacity of the list, in entries per point: a hanging sheet lists under one, a sheet
+# folded onto itself a few; the buffer grows between frames when a build needs more
+PAIRS_PER_POINT = 4
 
 
 def pair_distances(solver) -> list[float]:
