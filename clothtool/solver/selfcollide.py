@@ -15,7 +15,10 @@ particles count as immovable, so this cloth takes the whole correction.
 
 Stiffness: ``self_collision_stiffness`` per stiffness-frequency step, converted to the
 iteration length in log space like every NvCloth stiffness. The kernels are described in
-``clothtool.solver.kernels.selfcollide``; all buffers are allocated here, once.
+``clothtool.solver.kernels.selfcollide``: the pairs come from a neighbour list that is
+rebuilt only when the points have moved more than about half its skin. All buffers are
+allocated here; the list's grows between frames when a rebuild found it too small (until
+then the kernel works through it in chunks, with the same result).
 """
 
 from __future__ import annotations
@@ -24,12 +27,20 @@ import numpy as np
 
 from clothtool.solver.framefn import FusedCall, copy_lines
 from clothtool.solver.iteration import FramePlan, Iteration
-from clothtool.solver.kernels.selfcollide import build_grid, collide_points, collide_points_parallel, transform_points
+from clothtool.solver.kernels.selfcollide import collide_points, collide_points_parallel, transform_points
 from clothtool.solver.logstiffness import iteration_stiffness
 from clothtool.solver.stage import Stage
 
 _EYE = np.eye(3, dtype=np.float32)
 _ZERO = np.zeros(3, np.float32)
+# the list's skin, as a fraction of the largest distance: a wider skin lists more pairs (read
+# at every iteration) and makes the grid's cells larger, a narrower one rebuilds the list more
+# often. 0.3 was the cheapest of 0.1 / 0.2 / 0.3 / 0.5 on benchmarks/nvcloth_table.py's
+# self-collision sheets (64^2 and 128^2, distance 3/4 of the spacing)
+SKIN_FRACTION = 0.3
+# first capacity of the list, in entries per point: a hanging sheet lists under one, a sheet
+# folded onto itself a few; the buffer grows between frames when a build needs more
+PAIRS_PER_POINT = 4
 
 
 def pair_distances(solver) -> list[float]:
@@ -67,16 +78,26 @@ class SelfCollideStage(Stage):
         self.spans = [(int(ends[k]), int(ends[k + 1])) for k in range(len(self.neighbours))]
         self.segment_distance = np.asarray(distances, np.float32)
         self.point_segment = np.repeat(np.arange(len(sizes), dtype=np.int32), sizes)
-        self.inv_cell = np.float32(0.5 / max(distances))  # cells twice the largest distance
+        largest = max(distances)
+        self.skin = np.float32(SKIN_FRACTION * largest)
+        self.inv_cell = np.float32(1.0 / (largest + float(self.skin)))  # cells as large as the list's reach
         dtype = solver.state.cur.dtype
         self.points = np.zeros((total, 4), dtype)
+        self.anchor = np.zeros((total, 4), dtype)
         self.sorted_points = np.zeros((total, 4), dtype)
         self.sorted_cell = np.zeros((total, 3), np.int32)
         buckets = 1 << max(1, int(2 * total - 1).bit_length())  # a power of two >= 2 * total
         self.bucket_start = np.zeros(buckets + 1, np.int32)
         self.order = np.zeros(total, np.int32)
+        self.strides = np.zeros(2, np.int64)  # the grid's row and layer lengths, set at each build
+        self.row_start = np.zeros(self.own + 1, np.int32)
+        self.row_split = np.zeros(self.own, np.int32)
+        self.pairs = np.zeros(max(PAIRS_PER_POINT * total, 1), np.int32)  # >= one entry per point
+        self.found = np.zeros((self.pairs.shape[0], 2), np.int32)  # the pairs a build found, once each
+        self.list_state = np.zeros(2, np.int64)  # [list complete, entries needed]: none yet
+        self.sums = np.zeros((self.own, 4), dtype)
         # all cores from parallel_threshold points, like the fabric's sets: a parallel kernel
-        # is ~1.7x faster on an idle 2-core machine but waits for every thread, which costs
+        # is faster on an idle multi-core machine but waits for every thread, which costs
         # whole scheduler slices when other jobs share the cores. Same bits either way.
         parallel = total >= solver.config.parallel_threshold
         self.kernel = collide_points_parallel if parallel else collide_points
@@ -91,18 +112,25 @@ class SelfCollideStage(Stage):
         solver = self.solver
         k = solver.model.material.self_collision_stiffness
         self.stiffness = iteration_stiffness(k, solver.config.stiffness_frequency, plan.h)
+        needed = int(self.list_state[1])
+        if needed > self.pairs.shape[0]:  # the last build did not fit: room for it and some more
+            self.pairs = np.zeros(needed + needed // 2, np.int32)
+            self.found = np.zeros((self.pairs.shape[0], 2), np.int32)
 
     def warm_up(self) -> None:
         solver = self.solver
-        points, starts, order = self.points[:0], self.bucket_start[:2], self.order[:0]
-        sorted_points, sorted_cell = self.sorted_points[:0], self.sorted_cell[:0]
+        points = self.points[:0]
         transform_points(solver.state.cur[:0], _EYE, _ZERO, np.float32(1.0), points)
         for neighbour in self.neighbours:  # their state may be of another precision
             transform_points(neighbour.state.cur[:0], _EYE, _ZERO, np.float32(1.0), points)
-        build_grid(points, self.inv_cell, starts, order, sorted_points, sorted_cell)
-        self.kernel(
-            sorted_points, sorted_cell, starts, order, solver.model.rest_pos[:0], self.point_segment[:0],
-            self.segment_distance, self.inv_cell, np.float32(1.0), solver.state.cur[:0],
+        self.kernel(*self._arguments(points, self.anchor[:0], self.row_start[:1], solver.state.cur[:0]))
+        self.list_state[:] = 0  # the empty call's "list" is no list of the cloth's
+
+    def _arguments(self, points, anchor, row_start, cur) -> tuple:
+        return (
+            points, anchor, self.skin, self.inv_cell, self.bucket_start, self.order, self.sorted_points,
+            self.sorted_cell, self.strides, self.solver.model.rest_pos, self.point_segment, self.segment_distance, self.stiffness,
+            row_start, self.row_split, self.pairs, self.found, self.list_state, self.sums, cur,
         )
 
     def _relative_pose(self, neighbour) -> tuple[np.ndarray, np.ndarray]:
@@ -125,23 +153,18 @@ class SelfCollideStage(Stage):
             transform_points(neighbour.state.cur, matrix, offset, w_scale, self.points[start:end])
 
     def run(self, iteration: Iteration) -> None:
-        solver = self.solver
         self.gather()
-        build_grid(self.points, self.inv_cell, self.bucket_start, self.order, self.sorted_points, self.sorted_cell)
-        self.kernel(
-            self.sorted_points, self.sorted_cell, self.bucket_start, self.order, solver.model.rest_pos,
-            self.point_segment, self.segment_distance, self.inv_cell, self.stiffness, solver.state.cur,
-        )
+        self.kernel(*self._arguments(self.points, self.anchor, self.row_start, self.solver.state.cur))
 
     def fused_call(self) -> FusedCall:
         # gather() without neighbours: the snapshot is a copy of the cloth's own particles
+        names = ("points", "anchor", "skin", "inv_cell", "bucket_start", "order", "sorted_points", "sorted_cell",
+                 "strides", "rest_pos", "point_segment", "segment_distance", "stiffness", "row_start", "row_split", "pairs",
+                 "found", "list_state", "sums")
+        values = self._arguments(self.points, self.anchor, self.row_start, None)[:-1]
         return FusedCall(
             (*copy_lines("cur", "{points}"),
-             "{build_grid}({points}, {inv_cell}, {bucket_start}, {order}, {sorted_points}, {sorted_cell})",
-             "{collide}({sorted_points}, {sorted_cell}, {bucket_start}, {order}, {rest_pos}, {point_segment}, "
-             "{segment_distance}, {inv_cell}, {stiffness}, cur)"),
-            {"points": self.points, "inv_cell": self.inv_cell, "bucket_start": self.bucket_start, "order": self.order,
-             "sorted_points": self.sorted_points, "sorted_cell": self.sorted_cell, "rest_pos": self.solver.model.rest_pos,
-             "point_segment": self.point_segment, "segment_distance": self.segment_distance, "stiffness": self.stiffness},
-            {"build_grid": build_grid, "collide": self.kernel},
+             "{collide}(" + ", ".join("{%s}" % name for name in names) + ", cur)"),
+            dict(zip(names, values)),
+            {"collide": self.kernel},
         )

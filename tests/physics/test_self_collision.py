@@ -82,6 +82,18 @@ def test_folded_towel_keeps_its_halves_apart(towel):
     assert closest[-1] < 0.5 * DISTANCE
 
 
+def fold_flat(solver: ClothSolver) -> np.ndarray:
+    """Puts the towel folded flat onto itself, 0.4 distance apart with some noise (every
+    particle collides); returns the positions (float64)."""
+    points = solver.model.rest_pos.astype(np.float64)
+    right = points[:, 0] > 0.15
+    points[right, 0] = 0.3 - points[right, 0]
+    points[right, 1] = 0.4 * DISTANCE
+    points += np.random.default_rng(7).normal(0.0, 0.1 * DISTANCE, points.shape)
+    solver.state.cur[:, :3] = points
+    return points
+
+
 def test_self_collision_does_not_depend_on_the_thread_count(towel):
     """The stage is Jacobi (each particle sums its own corrections from a snapshot), so the
     parallel kernel on 1 or 2 threads and the serial kernel give the same bits. The towel
@@ -94,12 +106,7 @@ def test_self_collision_does_not_depend_on_the_thread_count(towel):
             solver = towel_solver(towel, True, parallel_threshold=threshold)
             stage = next(s for s in solver.stages if isinstance(s, SelfCollideStage))
             plan = solver.plan_frame(1, 0.0, 1.0 / FPS)
-            points = solver.model.rest_pos.astype(np.float64)
-            right = points[:, 0] > 0.15
-            points[right, 0] = 0.3 - points[right, 0]
-            points[right, 1] = 0.4 * DISTANCE
-            points += np.random.default_rng(7).normal(0.0, 0.1 * DISTANCE, points.shape)
-            solver.state.cur[:, :3] = points
+            points = fold_flat(solver)
             for index in range(5):
                 stage.run(solver.iteration(plan, index))
             runs.append(solver.state.cur.copy())
@@ -109,6 +116,30 @@ def test_self_collision_does_not_depend_on_the_thread_count(towel):
     assert (moved > 0.1 * DISTANCE).mean() > 0.5  # most particles were pushed
     np.testing.assert_array_equal(runs[0], runs[1])
     np.testing.assert_array_equal(runs[0], runs[2])
+
+
+def test_a_pair_buffer_too_small_gives_the_same_bits_and_grows_by_the_next_frame(towel):
+    """The folded towel's list needs more entries than one per particle: with a buffer of
+    that size the stage works through the list in chunks (the same bits as a buffer that
+    fits), and the next frame starts with a buffer that holds the whole list."""
+    runs = []
+    for shrink in (False, True):
+        solver = towel_solver(towel, True)
+        stage = next(s for s in solver.stages if isinstance(s, SelfCollideStage))
+        if shrink:
+            stage.pairs = np.zeros(solver.model.particle_count, np.int32)
+        plan = solver.plan_frame(1, 0.0, 1.0 / FPS)
+        fold_flat(solver)
+        for index in range(3):
+            stage.run(solver.iteration(plan, index))
+        runs.append(solver.state.cur.copy())
+    needed = int(stage.list_state[1])
+    assert needed > solver.model.particle_count and stage.list_state[0] == 0
+    np.testing.assert_array_equal(runs[0], runs[1])
+    plan = solver.plan_frame(2, 1.0 / FPS, 1.0 / FPS)
+    assert stage.pairs.shape[0] >= needed
+    stage.run(solver.iteration(plan, 0))
+    assert stage.list_state[0] == 1
 
 
 @pytest.mark.parametrize(
