@@ -66,7 +66,7 @@ def triangle_ball(cur, prev, a, b, c):
     return cx, cy, cz, radius
 
 
-@kernel
+@kernel(device=True)
 def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
     """Distance of p from the segment ab (float64)."""
     ex = bx - ax
@@ -85,13 +85,13 @@ def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
     return np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
-@kernel
+@kernel(device=True)
 def _far(gap, scale):
     """True when ``gap`` (a distance minus the reach) is positive beyond rounding of ``scale``."""
     return gap > SLACK * scale
 
 
-@kernel
+@kernel(device=True)
 def spheres_far(cx, cy, cz, radius, sphere_data, swept):
     """True when the ball (c, radius) is beyond reach of every sphere (``swept``: over the
     sphere's motion through the iteration, for continuous collision)."""
@@ -114,7 +114,7 @@ def spheres_far(cx, cy, cz, radius, sphere_data, swept):
     return True
 
 
-@kernel
+@kernel(device=True)
 def capsules_far(cx, cy, cz, radius, capsule_data, swept):
     """As spheres_far, for the capsules (see the module docstring)."""
     C = capsule_data
@@ -141,7 +141,7 @@ def capsules_far(cx, cy, cz, radius, capsule_data, swept):
     return True
 
 
-@kernel
+@kernel(device=True)
 def convexes_far(cx, cy, cz, radius, planes, offsets, convex_data):
     """True when every convex has a plane with the whole ball outside it, beyond the margin."""
     magnitude = abs(cx) + abs(cy) + abs(cz) + radius
@@ -161,7 +161,7 @@ def convexes_far(cx, cy, cz, radius, planes, offsets, convex_data):
     return True
 
 
-@kernel
+@kernel(device=True)
 def mesh_far(cx, cy, cz, radius, cell_start, grid, frame):
     """True when the grid cells covered by the ball's world boxes at the frame's start and
     end poses are all empty (or outside the grid)."""
