@@ -20,7 +20,9 @@ import types
 os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 import numba  # noqa: E402  (after the environment above)
+from numba.core import types as numba_types  # noqa: E402
 from numba.core.dispatcher import Dispatcher  # noqa: E402
+from numba.core.registry import CPUDispatcher  # noqa: E402
 
 from clothtool._kernel_cache import attach_cache  # noqa: E402
 
@@ -38,14 +40,20 @@ def kernel(func=None, **overrides):
     inlining copies and types the helper's IR again at every call site, which was a third
     of the fabric and face-point kernels' compile time (the walk's cold start as a whole
     gains little: the helpers now compile on their own). Bakes stay bit-identical and the
-    walk bake's simulation takes ~6% less CPU."""
+    walk bake's simulation takes ~6% less CPU.
+
+    ``device=True`` (implied by ``inline="always"``): a helper that only other kernels call
+    (see ``DeviceKernel``)."""
     options = {**KERNEL_OPTIONS, **overrides}
+    device = options.pop("device", False)
     if options.get("inline") == "always":
         del options["inline"]
         options["forceinline"] = True
+        device = True
+    make = _compile_device if device else _compile
     if func is None:
-        return lambda f: _compile(f, options)
-    return _compile(func, options)
+        return lambda f: make(f, options)
+    return make(func, options)
 
 
 def _compile(func, options: dict):
@@ -55,14 +63,39 @@ def _compile(func, options: dict):
     return dispatcher
 
 
+class DeviceKernel(CPUDispatcher):
+    """A helper of other kernels. Kernels that call it see (compile, and link in) its twin,
+    compiled without the CPython and C wrappers: only a call from Python needs those, and
+    they were about a third of a helper's compile time (their code went through LLVM too,
+    to be thrown away). The dispatcher itself, wrappers included, compiles only when Python
+    calls it (the kernel tests). Same code either way: the wrappers only call the function."""
+
+    twin: Dispatcher
+
+    @property
+    def _numba_type_(self):
+        return numba_types.Dispatcher(self.twin)
+
+
+def _compile_device(func, options: dict):
+    dispatcher = _compile(func, options)
+    if not isinstance(dispatcher, Dispatcher):
+        return dispatcher
+    dispatcher.__class__ = DeviceKernel  # made by njit as usual, then given the twin
+    dispatcher.twin = _compile(_renamed(func, "_device"), {**options, "no_cpython_wrapper": True, "no_cfunc_wrapper": True})
+    return dispatcher
+
+
+def _renamed(func, suffix: str):
+    """A copy of ``func`` named with ``suffix``: its own numba cache entries."""
+    copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__, func.__closure__)
+    copy.__qualname__ = func.__qualname__ + suffix
+    return copy
+
+
 def serial_and_parallel(func):
     """Two compilations of one kernel source: serial, and parallel (``numba.prange`` loops run
     on all cores). Each gets its own function name, so their numba cache entries stay apart;
     kernels written for this only prange over conflict-free work, so both give the same bits."""
 
-    def named(suffix: str):
-        copy = types.FunctionType(func.__code__, func.__globals__, func.__name__ + suffix, func.__defaults__, func.__closure__)
-        copy.__qualname__ = func.__qualname__ + suffix
-        return copy
-
-    return kernel(named("_serial")), kernel(parallel=True)(named("_parallel"))
+    return kernel(_renamed(func, "_serial")), kernel(parallel=True)(_renamed(func, "_parallel"))

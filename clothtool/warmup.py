@@ -26,6 +26,7 @@ from clothtool.errors import UnstableError
 from clothtool.io.extent_kernel import frame_extent
 from clothtool.io.h5chunks import shuffle
 from clothtool.loading import load_scene
+from clothtool.sim.integrators import CAPABILITIES, integrator_spec
 from clothtool.solver.kernels.rows import gather_xyz
 
 GRID = 6  # particles per side of the warm-up cloths
@@ -105,6 +106,17 @@ track = "hips"
 """
 
 
+# The warm-up scene's lines that ask for a capability: left out for an integrator without it
+# (a scene asking for what its integrator lacks is refused, clothtool.sim.integrators).
+CAPABILITY_LINES = {
+    "self_collision = true": "self_collision",
+    "cloth_collision = true": "cloth_collision",
+    "sleep_threshold = ": "sleep",
+    "motion = { ": "motion",
+    "backstop = { ": "separation",
+}
+
+
 @dataclasses.dataclass(frozen=True)
 class Variant:
     """One solver configuration to bake: ``overrides`` are scene ``--set`` strings."""
@@ -114,10 +126,15 @@ class Variant:
     tracked: bool  # a cloth simulates in a moving frame (the position-based solver only)
     convexes: bool = True  # plane and convex colliders besides the spheres and capsules
     meshes: bool = True  # a mesh collider
+    capabilities: frozenset[str] = frozenset(CAPABILITIES)  # what the variant's integrator does
 
     def scene_text(self) -> str:
         text = SCENE.replace("{front_track}", 'track = "hips"\n' if self.tracked else "")
-        return text + (CONVEX_COLLIDERS if self.convexes else "") + (MESH_COLLIDERS if self.meshes else "")
+        lines = [
+            line for line in text.splitlines(keepends=True)
+            if all(capability in self.capabilities for start, capability in CAPABILITY_LINES.items() if line.startswith(start))
+        ]
+        return "".join(lines) + (CONVEX_COLLIDERS if self.convexes else "") + (MESH_COLLIDERS if self.meshes else "")
 
 
 def variants() -> list[Variant]:
@@ -138,7 +155,8 @@ def variants() -> list[Variant]:
             if integrator == "explicit":  # the preset's frequency is beyond its stability limit for this cloth
                 overrides.append("solver.force=true")
             label = " ".join(part for part in (integrator, mode, precision, threads) if part)
-            found.append(Variant(label, tuple(overrides), tracked=integrator == "pbd"))
+            capabilities = integrator_spec(integrator).capabilities
+            found.append(Variant(label, tuple(overrides), tracked="tracks" in capabilities, capabilities=capabilities))
     for precision, (threads, thread_overrides) in itertools.product(("float32", "float64"), threading.items()):
         for meshes, convexes, continuous in itertools.product((True, False), repeat=3):
             if meshes and convexes and continuous:

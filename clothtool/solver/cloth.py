@@ -250,7 +250,8 @@ class ClothSolver:
             stage.warm_up()
         none = self.state.cur[:0]
         copy_xyz(none, np.empty((0, 3), none.dtype))
-        xyz_velocity(none, none, none.dtype.type(1.0), np.empty((0, 3), np.float32))
+        if self.track is None:  # a cloth in a moving frame (a track) gets its velocities from its poses
+            xyz_velocity(none, none, none.dtype.type(1.0), np.empty((0, 3), np.float32))
 
     def iterate(self, iteration: Iteration) -> None:
         if self.sleep.asleep:

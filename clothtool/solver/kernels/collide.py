@@ -66,7 +66,7 @@ from clothtool.solver.kernels.collide_shapes import (
 TINY = np.float32(1e-12)
 
 
-@kernel
+@kernel(device=True)
 def _unit(x, y, z):
     """(x, y, z) / |(x, y, z)|, or +y for a zero vector."""
     length = np.sqrt(x * x + y * y + z * z)
@@ -180,7 +180,7 @@ def capsule_contacts(px, py, pz, capsule_data):
     return count, dx, dy, dz, sx, sy, sz, budget
 
 
-@kernel
+@kernel(device=True)
 def frame_motion(frame, x, y, z):
     """Displacement over the iteration, in local coordinates, of the world-fixed point that
     sits at local x at the iteration's end: x - R0^T (R1 x + T1 - T0)."""
@@ -215,7 +215,7 @@ def convex_contacts(px, py, pz, planes, offsets, convex_data, frame):
     return count, dx, dy, dz, sx, sy, sz, budget
 
 
-@kernel
+@kernel(device=True)
 def friction_correction(px, py, pz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget):
     """Correction to add to p (already pushed out by d) that removes min(1, budget / |t|) of
     t, the part of the relative displacement p - q - s tangential to d."""

@@ -84,7 +84,7 @@ def triangle_box(cur, prev, a, b, c):
     return lx, ly, lz, hx, hy, hz
 
 
-@kernel
+@kernel(device=True)
 def _grow_box(out, k, x, y, z, r):
     """Grow box k of ``out`` (lo xyz, hi xyz) to hold the ball (x, y, z, r)."""
     out[k, 0] = min(out[k, 0], x - r)
@@ -95,7 +95,7 @@ def _grow_box(out, k, x, y, z, r):
     out[k, 5] = max(out[k, 5], z + r)
 
 
-@kernel
+@kernel(device=True)
 def collider_boxes(sphere_data, capsule_data, swept, out):
     """out (s+c, 6) float64: a box per sphere, then per capsule, holding it at the end pose
     (``swept``: over its motion through the iteration, the box of its start and end poses:
@@ -145,7 +145,7 @@ def boxes_miss(lx, ly, lz, hx, hy, hz, boxes):
     return True
 
 
-@kernel
+@kernel(device=True)
 def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
     """Distance of p from the segment ab (float64)."""
     ex = bx - ax
@@ -164,13 +164,13 @@ def segment_distance(px, py, pz, ax, ay, az, bx, by, bz):
     return np.sqrt(dx * dx + dy * dy + dz * dz)
 
 
-@kernel
+@kernel(device=True)
 def _far(gap, scale):
     """True when ``gap`` (a distance minus the reach) is positive beyond rounding of ``scale``."""
     return gap > SLACK * scale
 
 
-@kernel
+@kernel(device=True)
 def spheres_far(cx, cy, cz, radius, sphere_data, swept):
     """True when the ball (c, radius) is beyond reach of every sphere (``swept``: over the
     sphere's motion through the iteration, for continuous collision)."""
@@ -193,7 +193,7 @@ def spheres_far(cx, cy, cz, radius, sphere_data, swept):
     return True
 
 
-@kernel
+@kernel(device=True)
 def capsules_far(cx, cy, cz, radius, capsule_data, swept):
     """As spheres_far, for the capsules (see the module docstring)."""
     C = capsule_data
@@ -220,7 +220,7 @@ def capsules_far(cx, cy, cz, radius, capsule_data, swept):
     return True
 
 
-@kernel
+@kernel(device=True)
 def convexes_far(cx, cy, cz, radius, planes, offsets, convex_data):
     """True when every convex has a plane with the whole ball outside it, beyond the margin."""
     magnitude = abs(cx) + abs(cy) + abs(cz) + radius
@@ -240,7 +240,7 @@ def convexes_far(cx, cy, cz, radius, planes, offsets, convex_data):
     return True
 
 
-@kernel
+@kernel(device=True)
 def mesh_far(cx, cy, cz, radius, cell_start, grid, frame):
     """True when the grid cells covered by the ball's world boxes at the frame's start and
     end poses are all empty (or outside the grid)."""

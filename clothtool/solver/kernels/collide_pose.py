@@ -100,7 +100,7 @@ def pack_triangles(points0, points1, triangles, params, out):
         )
 
 
-@kernel
+@kernel(device=True)
 def pack_triangle(points0, points1, a, b, c, margin, friction, out, row):
     """out[row] = the record of the triangle of points a, b, c (see pack_triangles); reads
     columns 0-2 of points0 and points1 only, so particle states (n,4) serve as they are."""

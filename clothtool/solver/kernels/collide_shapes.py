@@ -30,7 +30,7 @@ from clothtool._jit import kernel
 TINY = np.float32(1e-12)
 
 
-@kernel
+@kernel(device=True)
 def perpendicular(ux, uy, uz):
     """A unit vector perpendicular to unit u: u x e_k for the coordinate axis e_k that u is
     least aligned with (the first one on ties), normalised."""
@@ -45,7 +45,7 @@ def perpendicular(ux, uy, uz):
     return px / length, py / length, pz / length
 
 
-@kernel
+@kernel(device=True)
 def sphere_distance(px, py, pz, cx, cy, cz, radius):
     """(distance, nx, ny, nz): signed distance of p from the sphere and the outward unit normal
     at its closest surface point (+y when p is at the centre)."""
@@ -59,7 +59,7 @@ def sphere_distance(px, py, pz, cx, cy, cz, radius):
     return length - radius, dx * inv, dy * inv, dz * inv
 
 
-@kernel
+@kernel(device=True)
 def round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb):
     """(distance, nx, ny, nz, sigma) of p from the hull of spheres (a, ra) and (b, rb).
 
@@ -126,7 +126,7 @@ CAPSULE_COLUMNS = 24
 REACH = 1.25
 
 
-@kernel
+@kernel(device=True)
 def capsule_axis(C, c):
     """Fill columns 17-23 of capsule record c from its end pose (columns 8-15): the terms of
     round_cone_distance that do not depend on the point, computed as it computes them (same
@@ -157,7 +157,7 @@ def capsule_axis(C, c):
     C[c, 22] = np.sqrt(max(one - sin_a * sin_a, zero))
 
 
-@kernel
+@kernel(device=True)
 def capsule_distance(px, py, pz, C, c):
     """round_cone_distance of p from capsule c's end pose, from the record's axis terms
     (capsule_axis), with the same bits; (inf, 0, 1, 0, 0) when p is beyond its reach (more
@@ -210,7 +210,7 @@ def capsule_distance(px, py, pz, C, c):
     return d, nx, ny, nz, min(max(sigma, zero), one)
 
 
-@kernel
+@kernel(device=True)
 def convex_distance(px, py, pz, planes, first, last, margin):
     """(distance, nx, ny, nz) of p from the convex [first, last) of ``planes`` (n, d; solid
     side n.x < d) grown by ``margin``: the largest n.p - d - margin over its planes, which is
@@ -228,7 +228,7 @@ def convex_distance(px, py, pz, planes, first, last, margin):
     return best, planes[best_k, 0], planes[best_k, 1], planes[best_k, 2]
 
 
-@kernel
+@kernel(device=True)
 def sphere_time_of_impact(qx, qy, qz, px, py, pz, c0x, c0y, c0z, r0, c1x, c1y, c1z, r1):
     """Earliest t in [0,1] at which the point moving q -> p touches the sphere moving
     (c0, r0) -> (c1, r1) (all linear in t), or -1 when it does not; 0 when q starts inside.
@@ -261,7 +261,7 @@ def sphere_time_of_impact(qx, qy, qz, px, py, pz, c0x, c0y, c0z, r0, c1x, c1y, c
     return t
 
 
-@kernel
+@kernel(device=True)
 def capsule_at(capsule_data, c, t):
     """Capsule c of ``capsule_data`` at fraction t of the iteration: (a xyz, ra, b xyz, rb)."""
     C = capsule_data
@@ -272,7 +272,7 @@ def capsule_at(capsule_data, c, t):
     )
 
 
-@kernel
+@kernel(device=True)
 def capsule_time_of_impact(qx, qy, qz, px, py, pz, capsule_data, c):
     """(t, nx, ny, nz, sigma): earliest t in [0,1] at which the point moving q -> p touches
     capsule c moving from its start to its end pose, with the normal and sigma there; t = -1
@@ -324,7 +324,7 @@ def capsule_time_of_impact(qx, qy, qz, px, py, pz, capsule_data, c):
     return np.float32(-1.0), nx, ny, nz, sigma
 
 
-@kernel
+@kernel(device=True)
 def rotate_between(ux, uy, uz, wx, wy, wz, x, y, z):
     """Rotate (x, y, z) by the smallest rotation taking unit u to unit w (identity when u and
     w are (nearly) opposite, which a capsule does not do within one iteration)."""
