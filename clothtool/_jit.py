@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import types
+from typing import cast
 
 # Idle OpenMP threads spin by default. On a machine shared with other jobs (a render node,
 # --jobs N bakes, CI) the spinning threads of one process starve the others and a parallel
@@ -82,8 +83,9 @@ def _compile_device(func, options: dict):
     if not isinstance(dispatcher, Dispatcher):
         return dispatcher
     dispatcher.__class__ = DeviceKernel  # made by njit as usual, then given the twin
-    dispatcher.twin = _compile(_renamed(func, "_device"), {**options, "no_cpython_wrapper": True, "no_cfunc_wrapper": True})
-    return dispatcher
+    device = cast(DeviceKernel, dispatcher)
+    device.twin = _compile(_renamed(func, "_device"), {**options, "no_cpython_wrapper": True, "no_cfunc_wrapper": True})
+    return device
 
 
 def _renamed(func, suffix: str):
