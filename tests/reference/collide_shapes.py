@@ -76,6 +76,17 @@ def round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb):
     return (distance, *n, sigma)
 
 
+def _axial_and_radial(px, py, pz, ax, ay, az, ux, uy, uz):
+    d, u = _vec(px, py, pz) - _vec(ax, ay, az), _vec(ux, uy, uz)
+    axial = float(d @ u)
+    e = d - axial * u
+    return (axial, *e, float(e @ e))
+
+
+def _cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, axial, ex, ey, ez, radial2):
+    return round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb)
+
+
 def capsule_axis(C, c):
     """Fill record c's end-pose axis terms (columns 17-23) from its end spheres."""
     from tests.reference.collide_pose import capsule_axes

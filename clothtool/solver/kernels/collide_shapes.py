@@ -86,6 +86,14 @@ def round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb):
     uz = abz * inv_length
     sin_a = (ra - rb) * inv_length
     cos_a = np.sqrt(max(one - sin_a * sin_a, zero))
+    axial, ex, ey, ez, radial2 = _axial_and_radial(px, py, pz, ax, ay, az, ux, uy, uz)
+    return _cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, axial, ex, ey, ez,
+                          radial2)
+
+
+@kernel(inline="always")
+def _axial_and_radial(px, py, pz, ax, ay, az, ux, uy, uz):
+    """(axial, ex, ey, ez, radial^2): p - a along the unit axis u, and its part across it."""
     dx = px - ax
     dy = py - ay
     dz = pz - az
@@ -93,7 +101,16 @@ def round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb):
     ex = dx - axial * ux
     ey = dy - axial * uy
     ez = dz - axial * uz
-    radial = np.sqrt(ex * ex + ey * ey + ez * ez)
+    return axial, ex, ey, ez, ex * ex + ey * ey + ez * ez
+
+
+@kernel(inline="always")
+def _cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, axial, ex, ey, ez, radial2):
+    """round_cone_distance of a capsule whose spheres do not hold each other, from its axis
+    terms (see the module docstring) and p's (_axial_and_radial)."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    radial = np.sqrt(radial2)
     if radial <= TINY * length:
         ex, ey, ez = perpendicular(ux, uy, uz)
         radial = zero
@@ -174,40 +191,12 @@ def capsule_distance(px, py, pz, C, c):
         d, nx, ny, nz = sphere_distance(px, py, pz, C[c, 12], C[c, 13], C[c, 14], C[c, 15])
         return d, nx, ny, nz, one
     ux, uy, uz = C[c, 17], C[c, 18], C[c, 19]
-    sin_a, cos_a = C[c, 21], C[c, 22]
-    dx = px - ax
-    dy = py - ay
-    dz = pz - az
-    axial = dx * ux + dy * uy + dz * uz
-    ex = dx - axial * ux
-    ey = dy - axial * uy
-    ez = dz - axial * uz
-    radial2 = ex * ex + ey * ey + ez * ez
+    axial, ex, ey, ez, radial2 = _axial_and_radial(px, py, pz, ax, ay, az, ux, uy, uz)
     beyond = axial - length  # past end b when positive
     if radial2 > reach2 or (axial < zero and axial * axial > reach2) or (beyond > zero and beyond * beyond > reach2):
         return np.inf, zero, one, zero, zero
-    radial = np.sqrt(radial2)
-    if radial <= TINY * length:
-        ex, ey, ez = perpendicular(ux, uy, uz)
-        radial = zero
-    else:
-        inv = one / radial
-        ex *= inv
-        ey *= inv
-        ez *= inv
-    s = axial * cos_a - radial * sin_a
-    if s <= zero:
-        d, nx, ny, nz = sphere_distance(px, py, pz, ax, ay, az, ra)
-        return d, nx, ny, nz, zero
-    if s >= length * cos_a:
-        d, nx, ny, nz = sphere_distance(px, py, pz, C[c, 12], C[c, 13], C[c, 14], C[c, 15])
-        return d, nx, ny, nz, one
-    d = axial * sin_a + radial * cos_a - ra
-    nx = sin_a * ux + cos_a * ex
-    ny = sin_a * uy + cos_a * ey
-    nz = sin_a * uz + cos_a * ez
-    sigma = (axial - d * sin_a - ra * sin_a) / (length * cos_a * cos_a)
-    return d, nx, ny, nz, min(max(sigma, zero), one)
+    return _cone_distance(px, py, pz, ax, ay, az, ra, C[c, 12], C[c, 13], C[c, 14], C[c, 15], ux, uy, uz, length, C[c, 21],
+                          C[c, 22], axial, ex, ey, ez, radial2)
 
 
 @kernel(device=True)
