@@ -214,6 +214,7 @@ def test_cull_kernels_match_reference():
         boxes_miss,
         collider_boxes,
         convexes_far,
+        impact_tolerance,
         mesh_far,
         run_end,
         triangle_ball,
@@ -229,6 +230,7 @@ def test_cull_kernels_match_reference():
     cur, prev = rng.normal(0, 0.3, (6, 4)).astype(np.float32), rng.normal(0, 0.3, (6, 4)).astype(np.float32)
     np.testing.assert_allclose(triangle_ball(cur, prev, 0, 1, 2), ref.triangle_ball(cur, prev, 0, 1, 2), rtol=1e-12)
     assert triangle_box(cur, prev, 0, 1, 2) == ref.triangle_box(cur, prev, 0, 1, 2)
+    assert impact_tolerance(0.3) == ref.impact_tolerance(0.3) == pytest.approx(3.0001e-5)
     count = shapes[0].shape[0] + shapes[1].shape[0]
     for swept in (False, True):
         boxes, want = np.empty((count, 6)), np.empty((count, 6))

@@ -20,6 +20,10 @@ def triangle_ball(cur, prev, a, b, c):
     return (*centre, float(np.linalg.norm(corners - centre, axis=1).max()))
 
 
+def impact_tolerance(radius):
+    return 1e-4 * radius + 1e-9
+
+
 def triangle_box(cur, prev, a, b, c):
     corners = np.vstack([cur[[a, b, c], :3], prev[[a, b, c], :3]]).astype(np.float64)
     return (*corners.min(axis=0), *corners.max(axis=0))

@@ -485,9 +485,7 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
                 norm = ma * ma + mb * mb + mc * mc
                 if norm <= zero:
                     continue
-                px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
-                py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
-                pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
+                px, py, pz = _weighted(cur, a, b, c, wa, wb, wc)
                 # the point at the iteration's start: for continuous collision and meshes, else
                 # (the variants without them never read it) only for the friction of a contact
                 qx = qy = qz = zero

@@ -66,6 +66,13 @@ def triangle_ball(cur, prev, a, b, c):
     return cx, cy, cz, np.sqrt(square)
 
 
+@kernel(device=True)
+def impact_tolerance(radius):
+    """How near the surface collide_shapes.capsule_time_of_impact reports a touch (it stops
+    within 1e-4 of the smaller radius): bounded here by the largest radius ``radius``."""
+    return 1e-4 * radius + 1e-9
+
+
 @kernel(inline="always")
 def triangle_box(cur, prev, a, b, c):
     """(lo xyz, hi xyz) float64: the box of particles a, b, c at ``cur`` and ``prev`` (exact:
@@ -120,7 +127,7 @@ def collider_boxes(sphere_data, capsule_data, swept, out):
                 radius = np.float64(C[c, first + 3])
                 largest = max(largest, abs(radius))
                 _grow_box(out, k, np.float64(C[c, first]), np.float64(C[c, first + 1]), np.float64(C[c, first + 2]), radius)
-            tolerance = 1e-4 * largest + 1e-9 if swept else 0.0
+            tolerance = impact_tolerance(largest) if swept else 0.0
         grow = tolerance + SLACK * (abs(out[k, 0]) + abs(out[k, 1]) + abs(out[k, 2]) + abs(out[k, 3]) + abs(out[k, 4]) + abs(out[k, 5]))
         for d in range(3):
             out[k, d] -= grow
@@ -214,7 +221,7 @@ def capsules_far(cx, cy, cz, radius, capsule_data, swept):
             distance = 0.5 * (d0 + d1 - max(travel_a, travel_b))
             scale += abs(a0x) + abs(a0y) + abs(a0z) + abs(b0x) + abs(b0y) + abs(b0z) + abs(ra0) + abs(rb0)
             # capsule_time_of_impact reports a touch within its tolerance of the surface
-            reach = max(reach, ra0, rb0) + 1e-4 * max(ra0, rb0, ra1, rb1) + 1e-9
+            reach = max(reach, ra0, rb0) + impact_tolerance(max(ra0, rb0, ra1, rb1))
         if not _far(distance - radius - reach, scale):
             return False
     return True
