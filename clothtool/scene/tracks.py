@@ -86,19 +86,19 @@ def quat_conjugate(q: np.ndarray) -> np.ndarray:
 
 
 def quat_log(q: np.ndarray) -> np.ndarray:
-    """Rotation vector / 2 of a unit quaternion (its logarithm's vector part)."""
-    v = q[1:]
-    s = np.linalg.norm(v)
-    if s < 1e-12:
-        return np.zeros(3)
-    return v / s * np.arctan2(s, q[0])
+    """(m,3) rotation vectors / 2 of (m,4) unit quaternions (their logarithms' vector parts)."""
+    v = q[:, 1:]
+    s = np.linalg.norm(v, axis=1, keepdims=True)
+    turned = s >= 1e-12
+    return np.where(turned, v / np.where(turned, s, 1.0) * np.arctan2(s, q[:, :1]), 0.0)
 
 
 def quat_exp(v: np.ndarray) -> np.ndarray:
-    angle = np.linalg.norm(v)
-    if angle < 1e-12:
-        return np.array([1.0, 0.0, 0.0, 0.0])
-    return np.concatenate([[np.cos(angle)], np.sin(angle) * v / angle])
+    """(m,4) unit quaternions of (m,3) logarithms (``quat_log``'s inverse)."""
+    angle = np.linalg.norm(v, axis=1, keepdims=True)
+    turned = angle >= 1e-12
+    axis_part = np.where(turned, np.sin(angle) * v / np.where(turned, angle, 1.0), 0.0)
+    return np.concatenate([np.where(turned, np.cos(angle), 1.0), axis_part], axis=1)
 
 
 def slerp_many(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -293,12 +293,12 @@ class Track:
         controls = self.__dict__.get("_controls")
         if controls is None:
             q, k = self.rotations, self.times.shape[0]
-            controls = np.empty((k - 1, 2, 4))
-            for i in range(k - 1):
-                a, d = max(i - 1, 0), min(i + 2, k - 1)
-                q0, q1, q2, q3 = q[a], q[i], q[i + 1], q[d]
-                controls[i, 0] = quat_multiply(q1, quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2)) / 6.0))
-                controls[i, 1] = quat_multiply(q2, quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3)) / 6.0))
+            i = np.arange(k - 1)
+            a, d = self._neighbours(i)
+            q0, q1, q2, q3 = q[a].T, q[i].T, q[i + 1].T, q[d].T  # quat_multiply takes components first
+            first = quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2).T) / 6.0)
+            second = quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3).T) / 6.0)
+            controls = np.stack([quat_multiply(q1, first.T).T, quat_multiply(q2, second.T).T], axis=1)
             object.__setattr__(self, "_controls", controls)
         return controls
 

@@ -70,12 +70,13 @@ def face_points(points: np.ndarray, triangles: np.ndarray, radius: float, margin
     if used.shape[0] == 0:
         return np.zeros((0, 4), np.int32), np.zeros((0, 3), np.float64)
     patterns = [subdivision_weights(int(n)) for n in used]
-    first = dict(zip(used.tolist(), np.cumsum([0] + [p.shape[0] for p in patterns[:-1]]).tolist()))
+    first = np.zeros(MAX_LEVEL + 1, np.int64)  # level -> its pattern's first row in the weights
+    first[used] = np.cumsum([0] + [p.shape[0] for p in patterns[:-1]])
     counts = levels * levels
     owner = np.repeat(np.arange(triangles.shape[0]), counts)
     start = np.repeat(np.cumsum(counts) - counts, counts)
     within = np.arange(owner.shape[0]) - start
-    offset = np.array([first.get(int(n), 0) for n in levels], np.int64)
+    offset = first[levels]
     rows = np.empty((owner.shape[0], 4), np.int32)
     rows[:, :3] = triangles[owner]
     rows[:, 3] = offset[owner] + within

@@ -240,14 +240,26 @@ def _frame_motion(rotations, translations, gravity, h, inertia: FrameInertia, st
     return q, k, b, motion_matrix, motion_offset, inv
 
 
-def _frame_terms(motion: tuple, scales, dtype, poses: list[Pose], rotations, translations) -> FrameTerms:
-    """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales."""
-    q, k, b, motion_matrix, motion_offset, inv = motion
+def _scaled(motion: tuple, scales, dtype) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """m_cur, m_prev and bias of ``_frame_motion``'s rows at velocity scales ``scales`` (one
+    per row), in the state's ``dtype``; element by element, so a row's bits do not depend on
+    the rows computed with it."""
+    q, k, b = motion[:3]
     scale = np.asarray(scales, np.float64)[:, None, None]
+    return (
+        np.ascontiguousarray(scale * q + k, dtype), np.ascontiguousarray(-scale * q, dtype), np.ascontiguousarray(b, dtype)
+    )
+
+
+def _frame_terms(motion: tuple, scales, dtype, poses: list[Pose], rotations, translations, scaled=None) -> FrameTerms:
+    """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales
+    (``scaled``: their ``_scaled`` arrays when already computed)."""
+    m_cur, m_prev, bias = _scaled(motion, scales, dtype) if scaled is None else scaled
+    motion_matrix, motion_offset, inv = motion[3:]
     return FrameTerms(
-        m_cur=np.ascontiguousarray(scale * q + k, dtype),
-        m_prev=np.ascontiguousarray(-scale * q, dtype),
-        bias=np.ascontiguousarray(b, dtype),
+        m_cur=m_cur,
+        m_prev=m_prev,
+        bias=bias,
         motion_matrix=motion_matrix,
         motion_offset=motion_offset,
         to_local=inv,
@@ -271,6 +283,7 @@ class FrameMotionAhead:
         self.rotations = np.stack([pose.rotation for pose in chain])
         self.translations = np.stack([pose.translation for pose in chain])
         self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
+        self._scaled: dict[tuple, tuple] = {}  # (scales, dtype) -> the chain's _scaled arrays
 
     def terms(self, history: FrameHistory, targets: list[Pose], scales, h: float, dtype) -> FrameTerms | None:
         """The terms of the frame from ``history`` to ``targets``; None when they are not
@@ -283,7 +296,21 @@ class FrameMotionAhead:
             return None
         rows = slice(j, j + k)
         poses = slice(j + 1, j + 2 + k)
+        scaled = self._scaled_rows(scales, dtype, j, k)
         return _frame_terms(
             tuple(array[rows] for array in self.motion), scales, dtype, chain[poses], self.rotations[poses],
-            self.translations[poses],
+            self.translations[poses], None if scaled is None else tuple(array[rows] for array in scaled),
         )
+
+    def _scaled_rows(self, scales, dtype, j: int, k: int):
+        """``_scaled`` of every row of the chain with each frame's iterations at ``scales``
+        (computed once for the chain, then sliced per frame: the same elementwise bits);
+        None when row ``j`` does not start a frame of ``k`` iterations."""
+        if j % k:
+            return None
+        key = (np.asarray(scales, np.float64).tobytes(), np.dtype(dtype))
+        scaled = self._scaled.get(key)
+        if scaled is None:
+            rows = self.motion[0].shape[0]
+            scaled = self._scaled[key] = _scaled(self.motion, np.resize(np.asarray(scales, np.float64), rows), dtype)
+        return scaled
