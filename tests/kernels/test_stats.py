@@ -78,6 +78,49 @@ def test_motion_summary_matches_reference(seed, n, broken):
         assert fastest == want_fastest
 
 
+@settings(max_examples=15)
+@given(seed=seeds, n=st.integers(300, 1100), broken=st.sampled_from([0.0, 0.002, 0.05]), tie=st.booleans())
+def test_summaries_over_many_blocks(seed, n, broken, tie):
+    """Over several of the kernels' blocks (STAT_BLOCK values each): the maximum, its first
+    particle, the first non-finite particle and the sums, whichever block they fall in."""
+    from clothtool.solver.kernels.stats import STAT_BLOCK
+
+    rng = np.random.default_rng(seed)
+    cur, prev = particles(rng, n, speed=0.01)
+    masses = rng.uniform(0.001, 0.01, n)
+    if tie:  # the top speed twice, in two blocks: the first particle is the fastest
+        first, second = sorted(rng.choice(n, 2, replace=False))
+        cur[first, :3] = prev[first, :3] + np.float32(0.5)
+        cur[second], prev[second] = cur[first], prev[first]  # the very same speed
+    bad = np.flatnonzero(rng.random(n) < broken)
+    cur[bad, 1] = np.nan
+    speed, energy, fastest, first_bad = motion_summary(cur, prev, masses, INV_DT)
+    want_speed, want_energy, want_fastest, want_bad = ref.motion_summary(cur, prev, masses, INV_DT)
+    assert n > STAT_BLOCK
+    assert speed == pytest.approx(want_speed, rel=4 * U)
+    assert energy == pytest.approx(want_energy, rel=8 * U)
+    assert (fastest, first_bad) == (want_fastest, want_bad)
+    c = 3 * n
+    indices = np.ascontiguousarray(rng.integers(0, n, (c, 2)), np.int32)
+    rest = f32(rng.uniform(0.5, 1.5, c))
+    worst, total = strain_extremes(indices, rest, cur)
+    strains = ref.constraint_strain(indices, rest, cur)
+    finite = np.isfinite(strains)
+    assert worst == pytest.approx(strains[finite].max(), abs=10 * U * (abs(strains[finite].max()) + 1))
+
+
+@settings(max_examples=40)
+@given(seed=seeds, n=st.integers(0, 40), count=st.integers(0, 40), nans=st.floats(0.0, 0.5), start=st.sampled_from([-np.inf, 0.0, 0.3]))
+def test_block_max_matches_reference(seed, n, count, nans, start):
+    """Four running maxima give the one maximum, NaN skipped, whatever count % 4 is."""
+    from clothtool.solver.kernels.stats import _block_max
+
+    rng = np.random.default_rng(seed)
+    values = rng.normal(0.0, 1.0, max(n, count))
+    values[rng.random(values.shape[0]) < nans] = np.nan
+    assert _block_max(values, count, start) == ref._block_max(values, count, start)
+
+
 def test_motion_summary_edge_cases():
     masses = np.ones(3)
     rest = f32([[0, 0, 0, 1], [1, 1, 1, 1], [2, 2, 2, 1]])

@@ -62,6 +62,13 @@ def tether_stretch(anchors, lengths, cur):
     return max(0.0, float(ratio.max()))
 
 
+def _block_max(values, count, worst):
+    """max(worst, values[0 : count]) with NaN values skipped."""
+    values = np.asarray(values, np.float64)[:count]
+    values = values[~np.isnan(values)]
+    return max(float(worst), float(values.max())) if values.size else worst
+
+
 def strain_extremes(indices, rest, cur):
     """(max, sum) of constraint_strain over the given constraints (-inf, 0 when none)."""
     strain = constraint_strain(indices, rest, cur)
