@@ -33,8 +33,9 @@ def phase_ranges(constraint_indices: np.ndarray, set_offsets: np.ndarray, phase_
     highest = np.full(phases, -1, np.int64)
     nonempty = np.flatnonzero(last > first)
     if nonempty.size:
-        row_lo = constraint_indices.min(axis=1).astype(np.int64)
-        row_hi = constraint_indices.max(axis=1).astype(np.int64)
+        # two columns compared whole: min(axis=1) reduces each 2-element row on its own, 10x slower
+        row_lo = np.minimum(constraint_indices[:, 0], constraint_indices[:, 1]).astype(np.int64)
+        row_hi = np.maximum(constraint_indices[:, 0], constraint_indices[:, 1]).astype(np.int64)
         # Phases own consecutive constraint ranges that cover them all (the sets' CSR), so each
         # nonempty phase's reduction runs exactly to the next nonempty phase's start.
         lowest[nonempty] = np.minimum.reduceat(row_lo, first[nonempty])
