@@ -35,6 +35,7 @@ class ClothMeter:
         self.span_max = np.zeros(len(ordered))
         self.span_sum = np.zeros(len(ordered))
         self._span_counts = (self.span_bounds[:, 1] - self.span_bounds[:, 0]).tolist()
+        self._span_per_label = len(set(self.span_labels)) == len(self.span_labels)
         self.has_tethers = model.has_tethers
         self.colliders = solver.environment.colliders
 
@@ -100,11 +101,12 @@ class ClothMeter:
     def strain_from_spans(self) -> dict:
         """Per phase type (max, mean) from frame_summary's per-span extremes (over plain
         lists: numpy scalars cost ~30 us a frame here, more than a small cloth's solve)."""
+        spans = zip(self.span_labels, self.span_max.tolist(), self.span_sum.tolist(), self._span_counts)
+        if self._span_per_label:  # an untiled fabric: each phase type one span
+            return {label: {"max": high, "mean": total / count} for label, high, total, count in spans}
         worst: dict[str, float] = {}
         totals: dict[str, list] = {}  # label -> [sum, count]
-        for label, high, total, count in zip(
-            self.span_labels, self.span_max.tolist(), self.span_sum.tolist(), self._span_counts
-        ):
+        for label, high, total, count in spans:
             worst[label] = max(worst.get(label, -np.inf), high)
             entry = totals.setdefault(label, [0.0, 0])
             entry[0] += total
