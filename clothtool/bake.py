@@ -154,7 +154,7 @@ class BakeStats:
 
 def _track_path(track, planned=()) -> FramePath:
     """The cloth frame that follows ``track``, sampled many times at once; ``planned``: the
-    times the bake will ask for (``_iteration_ends``), all sampled in one call."""
+    times the bake will ask for (``_track_times``), all sampled in one call."""
 
     def poses(times: np.ndarray) -> list[Pose]:
         translations, rotations, _ = track.sample_many(times)
@@ -163,17 +163,21 @@ def _track_path(track, planned=()) -> FramePath:
     return FramePath(lambda time: poses(np.array([time]))[0], poses, planned)
 
 
-def _iteration_ends(scene: Scene) -> list[float]:
-    """Seconds at the end of every iteration of every frame the bake simulates (pre-roll
-    included), as the position-based solver's plan_frame computes them."""
+def _track_times(scene: Scene) -> list[float]:
+    """Seconds at which the position-based solver asks for a tracked cloth's frame: where its
+    first frame starts and one iteration before (its start pose and motion), then the end of
+    every iteration of every frame the bake simulates (pre-roll included), as plan_frame
+    computes them."""
     frame_dt = 1.0 / scene.fps
     iterations = FramePlan.iterations_for(frame_dt, scene.solver.frequency)
-    ends = []
-    for frame in range(scene.start_frame - scene.preroll + 1, scene.end_frame + 1):
+    first = scene.start_frame - scene.preroll + 1
+    start = scene.frame_time(first - 1)
+    times = [start - frame_dt / iterations, start]
+    for frame in range(first, scene.end_frame + 1):
         plan = FramePlan(frame, scene.frame_time(frame - 1), frame_dt, iterations, frame_dt / iterations, 0.0,
                          scene.frame_time(frame))
-        ends += [plan.iteration_end(index) for index in range(iterations)]
-    return ends
+        times += [plan.iteration_end(index) for index in range(iterations)]
+    return times
 
 
 def rest_time(scene: Scene) -> float:
@@ -210,13 +214,13 @@ def make_solvers(scene: Scene, profiler: StageProfiler, merge: bool = True) -> l
     environment = Environment(np.asarray(scene.gravity, np.float64), wind, density, colliders)
     solvers = []
     # the times every tracked cloth's frame is asked for, the same for all of them
-    iteration_ends = _iteration_ends(scene) if any(cloth.track is not None for cloth in scene.cloths) else []
+    track_times = _track_times(scene) if any(cloth.track is not None for cloth in scene.cloths) else []
     for cloth in scene.cloths:
         model = build_model(
             cloth.name, cloth.fabric, cloth.material, cloth.placement, scene.meters_per_unit, scene.up_axis,
             cloth.motion, cloth.backstop,
         )
-        track = _track_path(cloth.track, iteration_ends) if cloth.track is not None else None
+        track = _track_path(cloth.track, track_times) if cloth.track is not None else None
         teleports = cloth.track.teleport_frames if cloth.track is not None else frozenset()
         extra = {"frame_dt": 1.0 / scene.fps} if scene.solver.integrator == "explicit" else {}
         attachment = _attachment(scene, cloth, model)
