@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from clothtool.bake import _iteration_ends, _track_path
+from clothtool.bake import _track_path, _track_times
 from clothtool.loading import load_scene
 from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver import frame as frame_module
@@ -106,15 +106,22 @@ def test_prefetched_colliders_match_closed_forms(scene):
 
 def test_track_path_planned_times_are_the_bits_of_one_time_alone(scene):
     track = scene.cloths[0].track
-    planned = _iteration_ends(scene)
+    planned = _track_times(scene)
     path, alone = _track_path(track, planned), _track_path(track)
-    # iteration ends as the solver plans them: the last of each frame ends on the frame's time
+    # the first frame's start and one iteration before it (the solver's start pose and
+    # motion), then iteration ends as the solver plans them: the last of each frame ends on
+    # the frame's time
     iterations = FramePlan.iterations_for(1.0 / scene.fps, scene.solver.frequency)
-    assert len(planned) == iterations * (scene.end_frame - scene.start_frame + scene.preroll)
-    assert planned[iterations - 1] == scene.frame_time(scene.start_frame - scene.preroll + 1)
-    frame_ends = planned[iterations:2 * iterations]
-    for got, expected in zip(path.poses(frame_ends), alone.poses(frame_ends)):
-        assert np.array_equal(got.rotation, expected.rotation) and np.array_equal(got.translation, expected.translation)
+    frame_dt = 1.0 / scene.fps
+    start = scene.frame_time(scene.start_frame - scene.preroll)
+    plan = FramePlan(1, start, frame_dt, iterations, frame_dt / iterations, 0.0)
+    assert planned[:2] == [plan.time - plan.h, plan.time]
+    ends = planned[2:]
+    assert len(ends) == iterations * (scene.end_frame - scene.start_frame + scene.preroll)
+    assert ends[iterations - 1] == scene.frame_time(scene.start_frame - scene.preroll + 1)
+    for times in (planned[:2], ends[iterations:2 * iterations]):
+        for got, expected in zip(path.poses(times), alone.poses(times)):
+            assert np.array_equal(got.rotation, expected.rotation) and np.array_equal(got.translation, expected.translation)
     unplanned = path(0.123456)  # sampled when asked
     np.testing.assert_array_equal(unplanned.translation, alone(0.123456).translation)
 
