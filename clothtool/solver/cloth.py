@@ -187,10 +187,10 @@ class ClothSolver:
         h = plan.h
         gravity, velocity = self.gravity, self.initial_velocity
         if self.track is not None:
-            pose = self.track(plan.time)
             # the frame's pose one iteration earlier: the cloth starts moving with its frame
+            # (asked first: a FramePath holds its planned poses from the earliest asked for)
             self.history = FrameHistory(self.track(plan.time - h))
-            self.history.now = pose
+            pose = self.history.now = self.track(plan.time)
             gravity = pose.rotation.T @ gravity
             velocity = pose.rotation.T @ velocity
         free = self.state.prev[:, 3] > 0

@@ -214,3 +214,21 @@ def test_frame_path_window_slides_and_keeps_the_poses_it_holds(monkeypatch):
     assert path.poses(planned[3:5]) == [following[0], following[1]]
     assert len(path.following(planned[25], 10)) == 5  # fewer at the end of the planned times
     np.testing.assert_array_equal(path(planned[29]).translation, plain(planned[29]).translation)
+
+
+def test_a_bake_samples_a_tracked_cloths_frame_once(scene, monkeypatch):
+    """The solver's start pose, the pose one iteration before it and every iteration end
+    come from one vectorised sample of the track (each extra call costs ~0.3 ms)."""
+    from clothtool.bake import bake
+
+    calls = []
+    sample = FramePath._sample
+
+    def counted(path, times):
+        calls.append(len(times))
+        return sample(path, times)
+
+    monkeypatch.setattr(FramePath, "_sample", counted)
+    bake(scene, "null")
+    iterations = FramePlan.iterations_for(1.0 / scene.fps, scene.solver.frequency)
+    assert calls == [2 + iterations * (scene.end_frame - scene.start_frame + scene.preroll)]
