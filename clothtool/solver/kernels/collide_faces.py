@@ -1,0 +1,236 @@
+"""Face collision with spheres and capsules: each triangle's deepest point, corrected once.
+
+Particle collision alone lets a sphere or capsule sink into a face between particles
+(clothtool.solver.facepoints picks the triangles large enough for that). For each such
+triangle and each sphere or capsule whose box meets the triangle's, ``collide_faces`` finds
+the triangle's deepest point against that collider (its point of least signed distance)
+and, when it is inside, collides that one point like a particle: push-out to the margin,
+friction, collision mass scale (kernels.collide). Its correction c is shared out to the
+movable corners as x_i += c w_i / sum(w^2) (w: the point's barycentric weights), so the point
+itself moves by c: the rule of the fabric's virtual particles (kernels.collide.collide_virtual).
+Once the deepest point is out, the whole face is; one exact point per face and collider does
+what a grid of points inside every face did at several times the cost. Triangles and then
+colliders are taken in order, each seeing the corrections before it (Gauss-Seidel, serial:
+the same bits at any thread count).
+
+The deepest point of triangle T. A capsule (collide_shapes) is the union of the spheres
+c(s) = a + s u, r(s) = ra - s sin(alpha) for s in [0, L], so its signed distance is
+sd(x) = min over s of |x - c(s)| - r(s), and min over T of sd is the minimum of that jointly
+convex function over (x in T, s in [0, L]). At a minimiser either
+
+* s is an end (0 or L): x is T's closest point to that end sphere's centre; or
+* s is inside: minimising over s alone gives the cone G(x) = cos(alpha) rho(x) + sin(alpha) t(x)
+  - ra (rho: distance from the axis line, t: axial coordinate; collide_shapes' side distance).
+  On T's plane G has no minimum inside T except where the axis line crosses the plane: its
+  gradient cos(alpha) e + sin(alpha) u is normal to the plane only where u.N = +-sin(alpha),
+  and then G is constant along a line that runs on to T's edges. So x is the crossing point
+  or on an edge, where G along the edge is cos(alpha) sqrt(A y^2 + m^2) + k y + const, whose
+  minimiser has a closed form (``_edge_minimum``).
+
+The deepest point is thus the best of at most six candidates (the two end spheres, tried only
+when T reaches that far along the axis, three edges, the crossing), each scored with
+collide_shapes.capsule_distance itself, so the depth used is the exact one at that point. A
+sphere's deepest point is T's closest point to its centre.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from clothtool._jit import kernel
+from clothtool.solver.kernels.collide import friction_correction
+from clothtool.solver.kernels.collide_mesh import closest_on_triangle, plane_coordinates
+from clothtool.solver.kernels.collide_shapes import capsule_distance, sphere_distance
+
+TINY = np.float32(1e-12)
+# An edge within ~0.06 degrees of the capsule's axis counts as parallel to it: G is then
+# linear along the edge (to micrometres over centimetre edges) and an end of it is deepest.
+PARALLEL = np.float32(1e-6)
+
+
+@kernel(device=True)
+def _edge_minimum(px, py, pz, qx, qy, qz, ax, ay, az, ux, uy, uz, sin_a, cos_a):
+    """lambda in [0, 1]: where along the edge p + lambda (q - p) the cone function
+    G = cos(alpha) rho + sin(alpha) t is least (see the module docstring).
+
+    With e = q - p split into its axial part te and its part we across the axis, and
+    w0 = (p - a) across the axis: rho^2 = A y^2 + m^2 with A = |we|^2, y = lambda - lambda0,
+    lambda0 = -w0.we / A, and G' = 0 where cos(alpha) A y / rho = -k, k = sin(alpha) te:
+    y = -k m / sqrt(A (A cos^2(alpha) - k^2)); G is monotonic when A cos^2(alpha) <= k^2."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    ex, ey, ez = qx - px, qy - py, qz - pz
+    te = ex * ux + ey * uy + ez * uz
+    wex, wey, wez = ex - te * ux, ey - te * uy, ez - te * uz
+    dx, dy, dz = px - ax, py - ay, pz - az
+    t0 = dx * ux + dy * uy + dz * uz
+    w0x, w0y, w0z = dx - t0 * ux, dy - t0 * uy, dz - t0 * uz
+    big_a = wex * wex + wey * wey + wez * wez
+    k = sin_a * te
+    downhill = one if k < zero else zero  # the lower end when G is linear or monotonic
+    if big_a <= PARALLEL * (ex * ex + ey * ey + ez * ez):
+        return downhill
+    lambda0 = -(w0x * wex + w0y * wey + w0z * wez) / big_a
+    m2 = max(w0x * w0x + w0y * w0y + w0z * w0z - big_a * lambda0 * lambda0, zero)
+    slope = big_a * cos_a * cos_a - k * k
+    if slope <= zero:
+        return downhill
+    return min(max(lambda0 - k * np.sqrt(m2 / (big_a * slope)), zero), one)
+
+
+@kernel(inline="always")
+def _score(best, C, c, wa, wb, wc, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z):
+    """``best`` (d, nx, ny, nz, sigma, wa, wb, wc) or the candidate with weights w, whichever
+    is deeper against capsule c (the first on ties)."""
+    x = wa * p0x + wb * p1x + wc * p2x
+    y = wa * p0y + wb * p1y + wc * p2y
+    z = wa * p0z + wb * p1z + wc * p2z
+    d, nx, ny, nz, sigma = capsule_distance(x, y, z, C, c)
+    if d < best[0]:
+        return d, nx, ny, nz, sigma, wa, wb, wc
+    return best
+
+
+@kernel(device=True)
+def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, C, c):
+    """(d, nx, ny, nz, sigma, wa, wb, wc): the deepest point of triangle p0 p1 p2 against
+    capsule c's end pose (barycentric weights w), with capsule_distance there; d is inf when
+    no point of it is within the capsule's reach."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    inf = np.float32(np.inf)
+    best = (inf, zero, one, zero, zero, one, zero, zero)
+    ax, ay, az = C[c, 8], C[c, 9], C[c, 10]
+    bx, by, bz = C[c, 12], C[c, 13], C[c, 14]
+    length = C[c, 20]
+    if length < zero:  # one end sphere holds the other: the capsule is the bigger one
+        if C[c, 11] >= C[c, 15]:
+            u, v = closest_on_triangle(ax, ay, az, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+        else:
+            u, v = closest_on_triangle(bx, by, bz, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+        return _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    ux, uy, uz = C[c, 17], C[c, 18], C[c, 19]
+    sin_a, cos_a = C[c, 21], C[c, 22]
+    # the end spheres, when the triangle reaches their side of the cone: s = t - rho tan(alpha)
+    # is at least min t - reach |tan(alpha)| over the points within reach (rho <= reach)
+    t0 = (p0x - ax) * ux + (p0y - ay) * uy + (p0z - az) * uz
+    t1 = (p1x - ax) * ux + (p1y - ay) * uy + (p1z - az) * uz
+    t2 = (p2x - ax) * ux + (p2y - ay) * uy + (p2z - az) * uz
+    slant = np.sqrt(C[c, 23]) * abs(sin_a)  # reach |tan(alpha)|, times cos(alpha)
+    if min(t0, t1, t2) * cos_a <= slant:
+        u, v = closest_on_triangle(ax, ay, az, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+        best = _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    if (max(t0, t1, t2) - length) * cos_a >= -slant:
+        u, v = closest_on_triangle(bx, by, bz, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+        best = _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    # the edges
+    s = _edge_minimum(p0x, p0y, p0z, p1x, p1y, p1z, ax, ay, az, ux, uy, uz, sin_a, cos_a)
+    best = _score(best, C, c, one - s, s, zero, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    s = _edge_minimum(p1x, p1y, p1z, p2x, p2y, p2z, ax, ay, az, ux, uy, uz, sin_a, cos_a)
+    best = _score(best, C, c, zero, one - s, s, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    s = _edge_minimum(p2x, p2y, p2z, p0x, p0y, p0z, ax, ay, az, ux, uy, uz, sin_a, cos_a)
+    best = _score(best, C, c, s, zero, one - s, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    # where the axis line crosses the triangle
+    e1x, e1y, e1z = p1x - p0x, p1y - p0y, p1z - p0z
+    e2x, e2y, e2z = p2x - p0x, p2y - p0y, p2z - p0z
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    across = nx * ux + ny * uy + nz * uz
+    if abs(across) > TINY * np.sqrt(nx * nx + ny * ny + nz * nz):
+        s = (nx * (p0x - ax) + ny * (p0y - ay) + nz * (p0z - az)) / across
+        u, v, ok = plane_coordinates(ax + s * ux, ay + s * uy, az + s * uz, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+        if ok and u >= zero and v >= zero and u + v <= one:
+            best = _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    return best
+
+
+@kernel(inline="always")
+def _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz, sx, sy, sz, friction, mass_scale, meters_per_unit):
+    """Collide the point w of triangle abc, ``-d`` inside along the outward normal n, on a
+    surface that moved by s over the iteration (see the module docstring)."""
+    zero = np.float32(0.0)
+    one = np.float32(1.0)
+    ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
+    mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
+    mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
+    norm = ma * ma + mb * mb + mc * mc
+    if norm <= zero:
+        return
+    px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
+    py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
+    pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
+    qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
+    qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
+    qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
+    dx, dy, dz = -d * nx, -d * ny, -d * nz
+    fx, fy, fz = friction_correction(px + dx, py + dy, pz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, -friction * d)
+    cx, cy, cz = dx + fx, dy + fy, dz + fz
+    scale = one
+    if mass_scale > 0.0:
+        square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
+        scale = one / (one + mass_scale * square)
+    for particle, m in ((a, ma), (b, mb), (c, mc)):
+        if m == zero:
+            continue
+        share = m / norm
+        cur[particle, 0] += cx * share
+        cur[particle, 1] += cy * share
+        cur[particle, 2] += cz * share
+        cur[particle, 3] *= one + (scale - one) * m
+
+
+@kernel(device=True)
+def _collider_boxes(sphere_data, capsule_data, out):
+    """out (s+c, 6): lo xyz, hi xyz of each sphere, then each capsule, at the end pose: every
+    point inside it lies in its box."""
+    S, C = sphere_data, capsule_data
+    for s in range(S.shape[0]):
+        for d in range(3):
+            out[s, d] = S[s, 4 + d] - S[s, 7]
+            out[s, 3 + d] = S[s, 4 + d] + S[s, 7]
+    for c in range(C.shape[0]):
+        r = max(C[c, 11], C[c, 15])
+        k = S.shape[0] + c
+        for d in range(3):
+            out[k, d] = min(C[c, 8 + d], C[c, 12 + d]) - r
+            out[k, 3 + d] = max(C[c, 8 + d], C[c, 12 + d]) + r
+
+
+@kernel
+def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per_unit, cur):
+    """Collide the deepest point of every triangle of ``faces`` (f,3) with every sphere and
+    capsule whose box meets the triangle's, in order (see the module docstring)."""
+    S, C = sphere_data, capsule_data
+    spheres = S.shape[0]
+    boxes = np.empty((spheres + C.shape[0], 6), cur.dtype)
+    _collider_boxes(S, C, boxes)
+    for f in range(faces.shape[0]):
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        for k in range(boxes.shape[0]):
+            p0x, p0y, p0z = cur[a, 0], cur[a, 1], cur[a, 2]
+            p1x, p1y, p1z = cur[b, 0], cur[b, 1], cur[b, 2]
+            p2x, p2y, p2z = cur[c, 0], cur[c, 1], cur[c, 2]
+            if (min(p0x, p1x, p2x) > boxes[k, 3] or max(p0x, p1x, p2x) < boxes[k, 0]
+                    or min(p0y, p1y, p2y) > boxes[k, 4] or max(p0y, p1y, p2y) < boxes[k, 1]
+                    or min(p0z, p1z, p2z) > boxes[k, 5] or max(p0z, p1z, p2z) < boxes[k, 2]):
+                continue
+            if k < spheres:
+                u, v = closest_on_triangle(S[k, 4], S[k, 5], S[k, 6], p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+                wa, wb, wc = np.float32(1.0) - u - v, u, v
+                d, nx, ny, nz = sphere_distance(wa * p0x + wb * p1x + wc * p2x, wa * p0y + wb * p1y + wc * p2y,
+                                                wa * p0z + wb * p1z + wc * p2z, S[k, 4], S[k, 5], S[k, 6], S[k, 7])
+                if d < 0.0:
+                    _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz, S[k, 4] - S[k, 0], S[k, 5] - S[k, 1],
+                             S[k, 6] - S[k, 2], S[k, 8], mass_scale, meters_per_unit)
+                continue
+            j = k - spheres
+            d, nx, ny, nz, sigma, wa, wb, wc = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, C, j)
+            if d < 0.0:
+                w = np.float32(1.0) - sigma  # the surface's motion: the end spheres' interpolated at sigma
+                _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz,
+                         w * (C[j, 8] - C[j, 0]) + sigma * (C[j, 12] - C[j, 4]),
+                         w * (C[j, 9] - C[j, 1]) + sigma * (C[j, 13] - C[j, 5]),
+                         w * (C[j, 10] - C[j, 2]) + sigma * (C[j, 14] - C[j, 6]), C[j, 16], mass_scale, meters_per_unit)
