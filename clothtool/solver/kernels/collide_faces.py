@@ -39,19 +39,42 @@ import numpy as np
 
 from clothtool._jit import kernel
 from clothtool.solver.kernels.collide import friction_correction
-from clothtool.solver.kernels.collide_mesh import closest_on_triangle, plane_coordinates
+from clothtool.solver.kernels.collide_mesh import closest_on_triangle
 from clothtool.solver.kernels.collide_shapes import capsule_distance, sphere_distance
 
-TINY = np.float32(1e-12)
 # An edge within ~0.06 degrees of the capsule's axis counts as parallel to it: G is then
 # linear along the edge (to micrometres over centimetre edges) and an end of it is deepest.
 PARALLEL = np.float32(1e-6)
 
 
-@kernel(device=True)
-def _edge_minimum(px, py, pz, qx, qy, qz, ax, ay, az, ux, uy, uz, sin_a, cos_a):
-    """lambda in [0, 1]: where along the edge p + lambda (q - p) the cone function
-    G = cos(alpha) rho + sin(alpha) t is least (see the module docstring).
+@kernel(inline="always")
+def capsule_terms(C, c):
+    """Capsule c's end pose and axis terms (collide_shapes.capsule_axis) as a tuple of
+    scalars: ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, L, sin(alpha), cos(alpha), reach^2
+    (a tuple of scalars passes to a helper without an array's reference counting)."""
+    return (C[c, 8], C[c, 9], C[c, 10], C[c, 11], C[c, 12], C[c, 13], C[c, 14], C[c, 15], C[c, 17], C[c, 18], C[c, 19],
+            C[c, 20], C[c, 21], C[c, 22], C[c, 23])
+
+
+@kernel(inline="always")
+def _side(t, rho2, T):
+    """G = cos(alpha) rho + sin(alpha) t - ra of a point at axial t, squared distance rho2
+    from the axis line, when its closest sphere lies inside the axis (0 < s < L, s cos(alpha) =
+    t cos(alpha) - rho sin(alpha)): then it is the capsule's signed distance there; else inf
+    (an end sphere is closest, and the end candidates cover that)."""
+    ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, reach2 = T
+    rho = np.sqrt(rho2)
+    s = t * cos_a - rho * sin_a
+    if s <= 0.0 or s >= length * cos_a:
+        return np.float32(np.inf)
+    return cos_a * rho + sin_a * t - ra
+
+
+@kernel(inline="always")
+def _edge_minimum(px, py, pz, qx, qy, qz, T):
+    """(G, lambda): where along the edge p + lambda (q - p), lambda in [0, 1], the cone
+    function G = cos(alpha) rho + sin(alpha) t - ra is least (see the module docstring), and
+    G there (``_side``: inf when an end sphere is closest there).
 
     With e = q - p split into its axial part te and its part we across the axis, and
     w0 = (p - a) across the axis: rho^2 = A y^2 + m^2 with A = |we|^2, y = lambda - lambda0,
@@ -59,6 +82,7 @@ def _edge_minimum(px, py, pz, qx, qy, qz, ax, ay, az, ux, uy, uz, sin_a, cos_a):
     y = -k m / sqrt(A (A cos^2(alpha) - k^2)); G is monotonic when A cos^2(alpha) <= k^2."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
+    ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, reach2 = T
     ex, ey, ez = qx - px, qy - py, qz - pz
     te = ex * ux + ey * uy + ez * uz
     wex, wey, wez = ex - te * ux, ey - te * uy, ez - te * uz
@@ -67,82 +91,89 @@ def _edge_minimum(px, py, pz, qx, qy, qz, ax, ay, az, ux, uy, uz, sin_a, cos_a):
     w0x, w0y, w0z = dx - t0 * ux, dy - t0 * uy, dz - t0 * uz
     big_a = wex * wex + wey * wey + wez * wez
     k = sin_a * te
-    downhill = one if k < zero else zero  # the lower end when G is linear or monotonic
-    if big_a <= PARALLEL * (ex * ex + ey * ey + ez * ez):
-        return downhill
-    lambda0 = -(w0x * wex + w0y * wey + w0z * wez) / big_a
-    m2 = max(w0x * w0x + w0y * w0y + w0z * w0z - big_a * lambda0 * lambda0, zero)
-    slope = big_a * cos_a * cos_a - k * k
-    if slope <= zero:
-        return downhill
-    return min(max(lambda0 - k * np.sqrt(m2 / (big_a * slope)), zero), one)
+    lam = one if k < zero else zero  # the lower end when G is linear or monotonic along the edge
+    if big_a > PARALLEL * (ex * ex + ey * ey + ez * ez):
+        lambda0 = -(w0x * wex + w0y * wey + w0z * wez) / big_a
+        slope = big_a * cos_a * cos_a - k * k
+        if slope > zero:
+            m2 = max(w0x * w0x + w0y * w0y + w0z * w0z - big_a * lambda0 * lambda0, zero)
+            lam = min(max(lambda0 - k * np.sqrt(m2 / (big_a * slope)), zero), one)
+    wx, wy, wz = w0x + lam * wex, w0y + lam * wey, w0z + lam * wez
+    return _side(t0 + lam * te, wx * wx + wy * wy + wz * wz, T), lam
 
 
 @kernel(inline="always")
-def _score(best, C, c, wa, wb, wc, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z):
-    """``best`` (d, nx, ny, nz, sigma, wa, wb, wc) or the candidate with weights w, whichever
-    is deeper against capsule c (the first on ties)."""
-    x = wa * p0x + wb * p1x + wc * p2x
-    y = wa * p0y + wb * p1y + wc * p2y
-    z = wa * p0z + wb * p1z + wc * p2z
-    d, nx, ny, nz, sigma = capsule_distance(x, y, z, C, c)
-    if d < best[0]:
-        return d, nx, ny, nz, sigma, wa, wb, wc
-    return best
+def _end_sphere(cx, cy, cz, r, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z):
+    """(|x - c| - r, weights of x): the triangle's point x closest to the sphere's centre c."""
+    u, v = closest_on_triangle(cx, cy, cz, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    w = np.float32(1.0) - u - v
+    dx = w * p0x + u * p1x + v * p2x - cx
+    dy = w * p0y + u * p1y + v * p2y - cy
+    dz = w * p0z + u * p1z + v * p2z - cz
+    return np.sqrt(dx * dx + dy * dy + dz * dz) - r, w, u, v
 
 
-@kernel(device=True)
-def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, C, c):
-    """(d, nx, ny, nz, sigma, wa, wb, wc): the deepest point of triangle p0 p1 p2 against
-    capsule c's end pose (barycentric weights w), with capsule_distance there; d is inf when
-    no point of it is within the capsule's reach."""
+@kernel(inline="always")
+def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T):
+    """(g, wa, wb, wc): the deepest point of triangle p0 p1 p2 against the capsule of terms T
+    (capsule_terms) as barycentric weights w, and the capsule's signed distance g there (from
+    the candidates' own arithmetic: collide_faces takes collide_shapes.capsule_distance's).
+
+    Each candidate of the module docstring is scored cheaply: an end sphere's by the distance
+    from it (not less than the capsule's), an edge's or the crossing's by G when the
+    capsule's closest sphere there lies inside the axis (then G is the capsule's distance;
+    otherwise an end candidate covers it). The least score is the triangle's least distance
+    and its candidate a point where it is reached."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
-    inf = np.float32(np.inf)
-    best = (inf, zero, one, zero, zero, one, zero, zero)
-    ax, ay, az = C[c, 8], C[c, 9], C[c, 10]
-    bx, by, bz = C[c, 12], C[c, 13], C[c, 14]
-    length = C[c, 20]
+    ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, reach2 = T
     if length < zero:  # one end sphere holds the other: the capsule is the bigger one
-        if C[c, 11] >= C[c, 15]:
-            u, v = closest_on_triangle(ax, ay, az, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+        if ra >= rb:
+            best, wa, wb, wc = _end_sphere(ax, ay, az, ra, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
         else:
-            u, v = closest_on_triangle(bx, by, bz, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-        return _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-    ux, uy, uz = C[c, 17], C[c, 18], C[c, 19]
-    sin_a, cos_a = C[c, 21], C[c, 22]
-    # the end spheres, when the triangle reaches their side of the cone: s = t - rho tan(alpha)
-    # is at least min t - reach |tan(alpha)| over the points within reach (rho <= reach)
-    t0 = (p0x - ax) * ux + (p0y - ay) * uy + (p0z - az) * uz
-    t1 = (p1x - ax) * ux + (p1y - ay) * uy + (p1z - az) * uz
-    t2 = (p2x - ax) * ux + (p2y - ay) * uy + (p2z - az) * uz
-    slant = np.sqrt(C[c, 23]) * abs(sin_a)  # reach |tan(alpha)|, times cos(alpha)
-    if min(t0, t1, t2) * cos_a <= slant:
-        u, v = closest_on_triangle(ax, ay, az, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-        best = _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-    if (max(t0, t1, t2) - length) * cos_a >= -slant:
-        u, v = closest_on_triangle(bx, by, bz, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-        best = _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-    # the edges
-    s = _edge_minimum(p0x, p0y, p0z, p1x, p1y, p1z, ax, ay, az, ux, uy, uz, sin_a, cos_a)
-    best = _score(best, C, c, one - s, s, zero, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-    s = _edge_minimum(p1x, p1y, p1z, p2x, p2y, p2z, ax, ay, az, ux, uy, uz, sin_a, cos_a)
-    best = _score(best, C, c, zero, one - s, s, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-    s = _edge_minimum(p2x, p2y, p2z, p0x, p0y, p0z, ax, ay, az, ux, uy, uz, sin_a, cos_a)
-    best = _score(best, C, c, s, zero, one - s, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-    # where the axis line crosses the triangle
-    e1x, e1y, e1z = p1x - p0x, p1y - p0y, p1z - p0z
-    e2x, e2y, e2z = p2x - p0x, p2y - p0y, p2z - p0z
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
-    across = nx * ux + ny * uy + nz * uz
-    if abs(across) > TINY * np.sqrt(nx * nx + ny * ny + nz * nz):
-        s = (nx * (p0x - ax) + ny * (p0y - ay) + nz * (p0z - az)) / across
-        u, v, ok = plane_coordinates(ax + s * ux, ay + s * uy, az + s * uz, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-        if ok and u >= zero and v >= zero and u + v <= one:
-            best = _score(best, C, c, one - u - v, u, v, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
-    return best
+            best, wa, wb, wc = _end_sphere(bx, by, bz, rb, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+    else:
+        # the edges
+        best, s = _edge_minimum(p0x, p0y, p0z, p1x, p1y, p1z, T)
+        wa, wb, wc = one - s, s, zero
+        g, s = _edge_minimum(p1x, p1y, p1z, p2x, p2y, p2z, T)
+        if g < best:
+            best, wa, wb, wc = g, zero, one - s, s
+        g, s = _edge_minimum(p2x, p2y, p2z, p0x, p0y, p0z, T)
+        if g < best:
+            best, wa, wb, wc = g, s, zero, one - s
+        # where the axis line crosses the triangle: its barycentric weights are the volumes
+        # u . (d1 x d2), u . (d2 x d0), u . (d0 x d1) (d_i = p_i - a), all of one sign inside
+        d0x, d0y, d0z = p0x - ax, p0y - ay, p0z - az
+        d1x, d1y, d1z = p1x - ax, p1y - ay, p1z - az
+        d2x, d2y, d2z = p2x - ax, p2y - ay, p2z - az
+        v0 = ux * (d1y * d2z - d1z * d2y) + uy * (d1z * d2x - d1x * d2z) + uz * (d1x * d2y - d1y * d2x)
+        v1 = ux * (d2y * d0z - d2z * d0y) + uy * (d2z * d0x - d2x * d0z) + uz * (d2x * d0y - d2y * d0x)
+        v2 = ux * (d0y * d1z - d0z * d1y) + uy * (d0z * d1x - d0x * d1z) + uz * (d0x * d1y - d0y * d1x)
+        if (v0 >= zero and v1 >= zero and v2 >= zero) or (v0 <= zero and v1 <= zero and v2 <= zero):
+            total = v0 + v1 + v2
+            if total != zero:
+                c0, c1, c2 = v0 / total, v1 / total, v2 / total
+                t = ((c0 * d0x + c1 * d1x + c2 * d2x) * ux + (c0 * d0y + c1 * d1y + c2 * d2y) * uy
+                     + (c0 * d0z + c1 * d1z + c2 * d2z) * uz)
+                g = _side(t, zero, T)
+                if g < best:
+                    best, wa, wb, wc = g, c0, c1, c2
+        # the end spheres, when the triangle reaches their side of the cone: s = t - rho tan(alpha)
+        # is at least min t - reach |tan(alpha)| over the points within reach (rho <= reach)
+        t0 = d0x * ux + d0y * uy + d0z * uz
+        t1 = d1x * ux + d1y * uy + d1z * uz
+        t2 = d2x * ux + d2y * uy + d2z * uz
+        slant = np.sqrt(reach2) * abs(sin_a)  # reach |tan(alpha)|, times cos(alpha)
+        if min(t0, t1, t2) * cos_a <= slant:
+            g, ea, eb, ec = _end_sphere(ax, ay, az, ra, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+            if g < best:
+                best, wa, wb, wc = g, ea, eb, ec
+        if (max(t0, t1, t2) - length) * cos_a >= -slant:
+            g, ea, eb, ec = _end_sphere(bx, by, bz, rb, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
+            if g < best:
+                best, wa, wb, wc = g, ea, eb, ec
+    return best, wa, wb, wc
 
 
 @kernel(inline="always")
@@ -209,13 +240,17 @@ def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per
         a = faces[f, 0]
         b = faces[f, 1]
         c = faces[f, 2]
+        moved = True
         for k in range(boxes.shape[0]):
-            p0x, p0y, p0z = cur[a, 0], cur[a, 1], cur[a, 2]
-            p1x, p1y, p1z = cur[b, 0], cur[b, 1], cur[b, 2]
-            p2x, p2y, p2z = cur[c, 0], cur[c, 1], cur[c, 2]
-            if (min(p0x, p1x, p2x) > boxes[k, 3] or max(p0x, p1x, p2x) < boxes[k, 0]
-                    or min(p0y, p1y, p2y) > boxes[k, 4] or max(p0y, p1y, p2y) < boxes[k, 1]
-                    or min(p0z, p1z, p2z) > boxes[k, 5] or max(p0z, p1z, p2z) < boxes[k, 2]):
+            if moved:  # the corners and their box, again after a correction
+                moved = False
+                p0x, p0y, p0z = cur[a, 0], cur[a, 1], cur[a, 2]
+                p1x, p1y, p1z = cur[b, 0], cur[b, 1], cur[b, 2]
+                p2x, p2y, p2z = cur[c, 0], cur[c, 1], cur[c, 2]
+                lx, ly, lz = min(p0x, p1x, p2x), min(p0y, p1y, p2y), min(p0z, p1z, p2z)
+                hx, hy, hz = max(p0x, p1x, p2x), max(p0y, p1y, p2y), max(p0z, p1z, p2z)
+            if (lx > boxes[k, 3] or hx < boxes[k, 0] or ly > boxes[k, 4] or hy < boxes[k, 1] or lz > boxes[k, 5]
+                    or hz < boxes[k, 2]):
                 continue
             if k < spheres:
                 u, v = closest_on_triangle(S[k, 4], S[k, 5], S[k, 6], p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
@@ -223,12 +258,19 @@ def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per
                 d, nx, ny, nz = sphere_distance(wa * p0x + wb * p1x + wc * p2x, wa * p0y + wb * p1y + wc * p2y,
                                                 wa * p0z + wb * p1z + wc * p2z, S[k, 4], S[k, 5], S[k, 6], S[k, 7])
                 if d < 0.0:
+                    moved = True
                     _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz, S[k, 4] - S[k, 0], S[k, 5] - S[k, 1],
                              S[k, 6] - S[k, 2], S[k, 8], mass_scale, meters_per_unit)
                 continue
             j = k - spheres
-            d, nx, ny, nz, sigma, wa, wb, wc = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, C, j)
+            g, wa, wb, wc = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, capsule_terms(C, j))
+            if not g < 0.0:
+                continue
+            # the response takes the capsule's own distance and normal there (the particles')
+            d, nx, ny, nz, sigma = capsule_distance(wa * p0x + wb * p1x + wc * p2x, wa * p0y + wb * p1y + wc * p2y,
+                                                    wa * p0z + wb * p1z + wc * p2z, C, j)
             if d < 0.0:
+                moved = True
                 w = np.float32(1.0) - sigma  # the surface's motion: the end spheres' interpolated at sigma
                 _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz,
                          w * (C[j, 8] - C[j, 0]) + sigma * (C[j, 12] - C[j, 4]),
