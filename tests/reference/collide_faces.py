@@ -14,16 +14,31 @@ from tests.reference.collide import friction_correction
 _OFFSETS = np.stack(np.meshgrid(np.arange(-10, 11), np.arange(-10, 11), indexing="ij"), -1).reshape(-1, 2).astype(np.float64)
 
 
+# the largest share c w_i / sum(w^2) takes when all three corners move: by symmetry at equal
+# other weights, the maximum of w / (w^2 + (1 - w)^2 / 2) over [0, 1], found numerically
+_W = np.linspace(0.0, 1.0, 1000001)
+_MOST = float(np.max(_W / (_W * _W + (1 - _W) ** 2 / 2)))
+
+
+def hull_distance(points, a, ra, b, rb):
+    """Signed distance of points (..., 3) to the hull of the spheres (a, ra), (b, rb):
+    clothtool.solver.penetration's round cone, or the bigger sphere when it holds the other."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    if np.linalg.norm(b - a) <= abs(ra - rb):
+        a, ra = (a, ra) if ra >= rb else (b, rb)
+        b, rb = a, ra
+    return round_cone_distance(points, a, b, np.float64(ra), np.float64(rb))
+
+
 def deepest(corners, a, ra, b, rb) -> tuple[float, np.ndarray]:
     """(signed distance, barycentric weights (3,)) of the deepest point of the triangle
     ``corners`` (3,3) against the hull of the spheres (a, ra), (b, rb): the best point of a
     barycentric grid, then of ever finer 21 x 21 grids around the best so far (a grid, not a
     few directions: the distance is a cone, not smooth, where the axis crosses the triangle)."""
     corners = np.asarray(corners, np.float64)
-    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
 
     def distance(weights):
-        return round_cone_distance(weights @ corners, a, b, np.float64(ra), np.float64(rb))
+        return hull_distance(weights @ corners, a, ra, b, rb)
 
     grid = barycentric_grid(60)
     values = distance(grid)
@@ -44,7 +59,8 @@ def deepest(corners, a, ra, b, rb) -> tuple[float, np.ndarray]:
 def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per_unit, cur):
     """Every face against every sphere, then every capsule, in order: the deepest point,
     when inside, pushed out to the surface with friction and mass scale, its correction
-    shared out as c w_i / sum(w^2) over the movable corners."""
+    shared out as c w_i / sum(w^2) over the movable corners, a share never above the most it
+    is when all three corners move (max of w / (w^2 + (1 - w)^2 / 2), at w = 1/sqrt 3)."""
     cur = np.array(cur, np.float64)
     prev = np.asarray(prev, np.float64)
     S, C = np.asarray(sphere_data, np.float64), np.asarray(capsule_data, np.float64)
@@ -60,14 +76,18 @@ def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per
             p = w @ cur[face, :3]
             eps = 1e-7 * max(1.0, float(np.abs(p).max()))  # the outward normal by central differences
             normal = np.array([
-                round_cone_distance(p + eps * e, a, b, np.float64(ra), np.float64(rb))
-                - round_cone_distance(p - eps * e, a, b, np.float64(ra), np.float64(rb)) for e in np.eye(3)
+                hull_distance(p + eps * e, a, ra, b, rb) - hull_distance(p - eps * e, a, ra, b, rb) for e in np.eye(3)
             ]) / (2 * eps)
             normal /= np.linalg.norm(normal)
-            # sigma: where along the axis the surface point's interpolated sphere sits
+            # sigma: the interpolated sphere a + s (b - a), ra + s (rb - ra) whose surface holds the
+            # closest point x = p - d n, its centre lying along -n from x (least squares in s)
             surface = p - d * normal
             axis = b - a
-            sigma = float(np.clip((surface - a) @ axis / (axis @ axis), 0.0, 1.0)) if axis @ axis > 0 else 0.0
+            if np.linalg.norm(axis) <= abs(ra - rb):  # one sphere holds the other: the bigger
+                sigma = 0.0 if ra >= rb else 1.0
+            else:
+                along = axis + (rb - ra) * normal
+                sigma = float(np.clip((surface - a - ra * normal) @ along / (along @ along), 0.0, 1.0))
             shift = (1 - sigma) * move_a + sigma * move_b
             push = -d * normal
             q = w @ prev[face, :3]
@@ -82,6 +102,6 @@ def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per
             for particle, weight in zip(face, m):
                 if weight == 0:
                     continue
-                cur[particle, :3] += correction * weight / norm
+                cur[particle, :3] += correction * min(weight / norm, _MOST)
                 cur[particle, 3] *= 1.0 + (scale - 1.0) * weight
     return cur

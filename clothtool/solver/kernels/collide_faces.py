@@ -6,8 +6,15 @@ triangle and each sphere or capsule whose box meets the triangle's, ``collide_fa
 the triangle's deepest point against that collider (its point of least signed distance)
 and, when it is inside, collides that one point like a particle: push-out to the margin,
 friction, collision mass scale (kernels.collide). Its correction c is shared out to the
-movable corners as x_i += c w_i / sum(w^2) (w: the point's barycentric weights), so the point
-itself moves by c: the rule of the fabric's virtual particles (kernels.collide.collide_virtual).
+movable corners as x_i += c w_i / sum(w^2) (w: the point's barycentric weights, the sum over
+the movable corners), so the point itself moves by c: the rule of the fabric's virtual
+particles (kernels.collide.collide_virtual). Unlike theirs, the deepest point may sit next to
+a pinned corner, where w_i / sum(w^2) grows without bound (c / w_i for a lone movable corner
+of weight w_i): the share is capped at (1 + sqrt 3) / 2, the largest it reaches when every
+corner can move (at w = 1/sqrt 3 with the other two equal), so a face of movable corners
+follows the rule exactly and a face pinned at the contact moves its free corners at most
+that many times c (the point then moves less than c: a pinned particle inside a collider
+cannot be helped).
 Once the deepest point is out, the whole face is; one exact point per face and collider does
 what a grid of points inside every face did at several times the cost. Triangles and then
 colliders are taken in order, each seeing the corrections before it (Gauss-Seidel, serial:
@@ -45,6 +52,8 @@ from clothtool.solver.kernels.collide_shapes import capsule_distance, sphere_dis
 # An edge within ~0.06 degrees of the capsule's axis counts as parallel to it: G is then
 # linear along the edge (to micrometres over centimetre edges) and an end of it is deepest.
 PARALLEL = np.float32(1e-6)
+# The largest share w_i / sum(w^2) of a correction when all three corners move (module docstring).
+MAX_SHARE = np.float32((1.0 + np.sqrt(3.0)) / 2.0)
 
 
 @kernel(inline="always")
@@ -217,7 +226,7 @@ def _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz, sx, sy, sz, friction
     for particle, m in ((a, ma), (b, mb), (c, mc)):
         if m == zero:
             continue
-        share = m / norm
+        share = min(m / norm, MAX_SHARE)
         cur[particle, 0] += cx * share
         cur[particle, 1] += cy * share
         cur[particle, 2] += cz * share
