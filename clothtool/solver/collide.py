@@ -262,7 +262,7 @@ class CollideStage(Stage):
         meshes = colliders.mesh_triangles.shape[0] > 0
         convexes = colliders.convex_plane_offsets.shape[0] > 1
         serial, parallel = collide_particles_for(meshes, convexes, self.continuous)
-        # the virtual particles' and face points' kernel, kept to the same kinds
+        # the virtual particles' kernel, kept to the same kinds
         self.virtual_kernel = collide_virtual_for(meshes, convexes, self.continuous)
         return parallel if self.parallel else serial
 
