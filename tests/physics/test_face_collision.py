@@ -13,7 +13,17 @@ from clothtool.collision.colliders import ColliderArrays
 from clothtool.settings import SolverConfig
 from clothtool.solver.facepoints import face_triangles, needs_face_collision
 from clothtool.solver.penetration import barycentric_grid, face_penetration, round_cone_distance
-from tests.physics.test_collision import THICKNESS, capsule, capsule_distance, cloth_fabric, run, solver_for, spheres
+from tests.physics.test_collision import (
+    THICKNESS,
+    capsule,
+    capsule_distance,
+    cloth_fabric,
+    max_speed,
+    merge,
+    run,
+    solver_for,
+    spheres,
+)
 
 # the measure's sampling error for these faces (spacing^2 / (8 (r - depth)), spacing = edge / 162;
 # under 25 micrometres for the 0.28 m hypotenuse against 1.5 cm) plus float32 input
@@ -168,3 +178,29 @@ def test_no_face_collision_with_continuous_collision():
     assert stages[False].faces.shape[0] == fabric.triangles.shape[0]  # 5 cm edges over a 2 cm rod
     assert stages[True].faces.shape[0] == 0
     assert stages[False].virtual.shape[0] == stages[True].virtual.shape[0] == 0  # faces add no virtual particles
+
+
+# ------------------------------------------------------------------ a coarse sheet on two thin rods
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_coarse_sheet_hangs_on_rods_between_its_particles(precision):
+    """A 60 cm sheet of only 3 x 3 particles (30 cm edges) falls onto two 1 cm rods that run
+    under the middle of its faces, between its particle rows: no particle ever touches a rod,
+    so particle collision alone lets the sheet fall through; each face's deepest point holds
+    it, and within the cloth's thickness of the rods' surfaces, however large the faces."""
+    fabric = cloth_fabric(3, 0.6, 0.05)
+    rods = [((-0.5, 0.0, z), (0.5, 0.0, z)) for z in (-0.15, 0.15)]
+    colliders = merge(*(capsule(a, b, (0.01, 0.01)) for a, b in rods))
+    highest = {}
+    for faces in (False, True):
+        config = SolverConfig(face_collision=faces, precision=precision)
+        solver = solver_for(fabric, colliders, config)
+        depths = []
+        for frame in range(30):
+            run(solver, 1, first=frame)
+            depths.append(face_penetration(solver.world_points(), fabric.triangles, colliders, 1.0, THICKNESS).depth)
+        highest[faces] = float(solver.world_points()[:, 1].max())
+        if faces:
+            assert max(depths) <= THICKNESS, max(depths)
+            assert np.isfinite(solver.world_points()).all() and max_speed(solver) < 1.0
+    assert highest[False] < -0.5  # every particle fell past the rods
+    assert highest[True] > -0.1  # the sheet hangs on them
