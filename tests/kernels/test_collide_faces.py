@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from clothtool._jit import kernel
-from clothtool.solver.kernels.collide_faces import capsule_deepest, capsule_terms, collide_faces
+from clothtool.solver.kernels.collide_faces import _capsule_terms, _edge_minimum, capsule_deepest, collide_faces
 from tests.kernels._data import assert_close, particles
 from tests.reference import collide_faces as ref
 from tests.reference.collide_pose import pack_capsules, pack_spheres
@@ -20,7 +20,33 @@ def _deepest(corners, capsule_data):
     """capsule_deepest of a (3,3) triangle against capsule 0, callable from Python."""
     p = corners
     return capsule_deepest(p[0, 0], p[0, 1], p[0, 2], p[1, 0], p[1, 1], p[1, 2], p[2, 0], p[2, 1], p[2, 2],
-                           capsule_terms(capsule_data, 0))
+                           _capsule_terms(capsule_data, 0))
+
+
+@kernel
+def _edge(p, q, capsule_data):
+    """_edge_minimum of the edge p q against capsule 0, callable from Python."""
+    return _edge_minimum(p[0], p[1], p[2], q[0], q[1], q[2], _capsule_terms(capsule_data, 0))
+
+
+def test_edge_minimum_matches_a_scalar_search():
+    """The closed-form minimiser of the cone function along an edge against a bounded scalar
+    search, on tapered and straight capsules: the same side distance (where the closest
+    sphere lies inside the axis) at the same place along the edge."""
+    rng = np.random.default_rng(5)
+    checked = 0
+    for trial in range(200):
+        ends = random_capsule(rng, "straight" if trial % 3 == 0 else "tapered")
+        capsule_data = np.ascontiguousarray(pack_capsules(ends, ends, np.array([[0, 1]]), np.array([[0.0, 0.5]])))
+        p, q = rng.uniform(-0.2, 0.2, 3) + [0.0, 0.0, 0.15], rng.uniform(-0.2, 0.2, 3) + [0.0, 0.0, 0.15]
+        got, lam = _edge(p, q, capsule_data)
+        want, want_lam = ref._edge_minimum(*p, *q, ref._capsule_terms(capsule_data, 0))
+        assert np.isfinite(got) == np.isfinite(want), (got, want)
+        if np.isfinite(want):
+            checked += 1
+            assert abs(got - want) <= 1e-9, (got, want)
+            assert abs(lam - want_lam) <= 1e-4, (lam, want_lam)
+    assert checked > 100
 
 
 def random_capsule(rng, kind: str) -> np.ndarray:
@@ -45,7 +71,7 @@ def test_deepest_point_matches_the_searched_minimum(dtype, kind):
         capsule_data = np.ascontiguousarray(pack_capsules(ends, ends, np.array([[0, 1]]), np.array([[0.0, 0.5]])), dtype)
         corners = rng.uniform(-0.12, 0.12, (3, 3)) + [rng.uniform(0, 0.1), 0.0, rng.uniform(-0.1, 0.4)]
         corners = np.ascontiguousarray(corners, dtype)
-        want, _ = ref.deepest(corners, ends[0, :3], ends[0, 3], ends[1, :3], ends[1, 3])
+        want, *_ = ref.capsule_deepest(*corners.ravel(), np.asarray(capsule_data[0], np.float64))
         got, *weights = _deepest(corners, capsule_data)
         tolerance = 2e-6 if dtype == np.float32 else 1e-9
         if want >= 0.0:

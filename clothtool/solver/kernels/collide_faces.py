@@ -57,7 +57,7 @@ MAX_SHARE = np.float32((1.0 + np.sqrt(3.0)) / 2.0)
 
 
 @kernel(inline="always")
-def capsule_terms(C, c):
+def _capsule_terms(C, c):
     """Capsule c's end pose and axis terms (collide_shapes.capsule_axis) as a tuple of
     scalars: ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, L, sin(alpha), cos(alpha), reach^2
     (a tuple of scalars passes to a helper without an array's reference counting)."""
@@ -125,7 +125,7 @@ def _end_sphere(cx, cy, cz, r, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z):
 @kernel(inline="always")
 def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T):
     """(g, wa, wb, wc): the deepest point of triangle p0 p1 p2 against the capsule of terms T
-    (capsule_terms) as barycentric weights w, and the capsule's signed distance g there (from
+    (_capsule_terms) as barycentric weights w, and the capsule's signed distance g there (from
     the candidates' own arithmetic: collide_faces takes collide_shapes.capsule_distance's).
 
     Each candidate of the module docstring is scored cheaply: an end sphere's by the distance
@@ -285,7 +285,7 @@ def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per
                              S[k, 6] - S[k, 2], S[k, 8], mass_scale, meters_per_unit)
                 continue
             j = k - spheres
-            g, wa, wb, wc = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, capsule_terms(C, j))
+            g, wa, wb, wc = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, _capsule_terms(C, j))
             if not g < 0.0:
                 continue
             # the response takes the capsule's own distance and normal there (the particles')
