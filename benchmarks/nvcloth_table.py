@@ -15,9 +15,9 @@ top corners, geodesic tethers, cotton without air drag, production solver:
 
 * plain: 32^2, 64^2, 128^2, 255^2 at 300 Hz and 60 fps (5 iterations per frame);
 * garment: 16^2, 32^2 at 312 Hz and 24 fps (13 iterations per frame), plain and with three
-  capsules cutting into the sheet: with clothtool's default face collision (collision points
-  inside triangles too large for the capsules, clothtool.solver.facepoints, which NvCloth
-  does not have) and with particles only (``face_collision = false``: NvCloth's model);
+  capsules cutting into the sheet: with clothtool's default face collision (each triangle too
+  large for the capsules pushes its deepest point out of them, clothtool.solver.kernels.collide_faces,
+  which NvCloth does not have) and with particles only (``face_collision = false``: NvCloth's model);
 * sphere: 64^2, 128^2 draped on a sphere, without and with continuous collision;
 * self: 64^2, 128^2 with self-collision.
 
@@ -61,7 +61,7 @@ VARIANTS = {
     "sphere+ccd": (True, False, True, False, True),
     "capsules": (False, True, False, False, True),
     # NvCloth's own collision model: particles only (clothtool's default also collides the
-    # faces, with collision points inside triangles too large for the capsules: more work)
+    # faces: the deepest point of each triangle too large for the capsules, more work)
     "capsules, particles only": (False, True, False, False, False),
     "self": (False, False, False, True, True),
 }

@@ -135,11 +135,11 @@ class SolverConfig:
     cloth_collision: cloths of a scene keep their particles apart (each material's
         self_collision_distance; a pair keeps the larger of the two).
     face_collision: position-based: faces collide with spheres and capsules, not only
-        particles: triangles too large for the smallest one get collision points inside
-        (clothtool.solver.facepoints), so no face sinks into a collider between particles.
-        Not with continuous_collision against spheres and capsules (a sheet swept over a rod
-        thinner than its triangles wraps flat faces round it, and their points' conflicting
-        corrections inject speed). Against triangle-mesh colliders the faces collide with the
+        particles: each triangle too large for the smallest one (clothtool.solver.facepoints)
+        pushes its deepest point out of each (clothtool.solver.kernels.collide_faces), so no
+        face sinks into a collider between particles. Not with continuous_collision against
+        spheres and capsules (a sheet swept over a rod thinner than its triangles wraps flat
+        faces round it, and their discrete, conflicting corrections inject speed). Against triangle-mesh colliders the faces collide with the
         mesh's vertices and edge samples (clothtool.solver.meshfaces), with continuous
         collision too: those contacts catch crossings themselves.
     """

@@ -6,8 +6,9 @@ triangle-mesh colliders. Each iteration it interpolates the colliders linearly t
 iteration's start (alpha0) and end (alpha1), moves them into the cloth's frame when the cloth
 simulates in a moving frame (start with the frame's pose at the iteration's start,
 ``history.before``, end with ``history.now``), then runs the collide kernels over the
-particles, the fabric's virtual particles and the collision points the stage adds inside faces
-too large for the smallest sphere or capsule (clothtool.solver.facepoints), and last the
+particles, the fabric's virtual particles, the faces too large for the smallest sphere or
+capsule against the spheres and capsules (clothtool.solver.facepoints picks them,
+clothtool.solver.kernels.collide_faces collides each one's deepest point), and last the
 cloth's faces against the mesh colliders' vertices and edge samples (clothtool.solver.meshfaces;
 not subject to the continuous-collision switch: its contacts catch crossings). Margins are
 each collider's thickness plus the cloth material's thickness (metres, converted to scene units).
@@ -28,7 +29,7 @@ import numpy as np
 
 from clothtool.collision.colliders import ColliderArrays, friction_or
 from clothtool.errors import SceneError
-from clothtool.solver.facepoints import face_points
+from clothtool.solver.facepoints import face_triangles
 from clothtool.solver.framefn import FusedCall, copy_lines, stacked
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.collide import (
@@ -37,6 +38,7 @@ from clothtool.solver.kernels.collide import (
     collide_particles_parallel,
     collide_virtual_for,
 )
+from clothtool.solver.kernels.collide_faces import collide_faces
 from clothtool.solver.kernels.collide_mesh import grid_cell_ranges, grid_fill, grid_layout, triangle_bounds
 from clothtool.solver.kernels.collide_mesh_faces import collide_mesh_faces
 from clothtool.solver.kernels.collide_pose import (
@@ -82,7 +84,7 @@ def _names_in(lines: tuple[str, ...]) -> frozenset[str]:
 
 
 @functools.lru_cache(maxsize=None)
-def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtual: bool,
+def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtual: bool, has_faces: bool,
                  mesh_faces: bool) -> tuple[tuple[str, ...], frozenset[str]]:
     """The collide stage's frame-function lines for the collider kinds present, and the
     names they use (the same every frame of a scene: built once, not per frame)."""
@@ -117,6 +119,8 @@ def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtu
     if has_virtual:
         lines.append("{collide_virtual}({virtual}, {virtual_weights}, " + groups
                      + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+    if has_faces:
+        lines.append("{collide_faces}({faces}, {sphere_data}, {capsule_data}, prev, {mass_scale}, {meters_per_unit}, cur)")
     if mesh_faces:
         lines.append("{collide_mesh_faces}({cloth_triangles}, {owners}, {triangle_data}, {cell_start}, {cell_items}, "
                      "{cell_ranges}, {grid}, {frames}[it], prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
@@ -157,13 +161,12 @@ class CollideStage(Stage):
         fabric = model.fabric
         self.virtual = np.ascontiguousarray(fabric.virtual_particles, I32)
         self.virtual_weights = np.ascontiguousarray(fabric.virtual_particle_weights, real)
-        # with continuous collision particles alone collide: face points (up to 25 per
-        # triangle against a thin rod) collide continuously (collide_virtual), but a sheet
-        # swept over a rod thinner than its triangles wraps flat faces round it and their
-        # points' conflicting corrections inject speed (vmax 104 m/s for a 10 m/s rod in
-        # tests/physics/test_hard_collision.py); the fabric's own virtual particles do collide
+        # with continuous collision particles alone collide: faces are collided discretely, and
+        # a collider crossing the cloth faster than its width per iteration would push a face
+        # out its far side (a sheet swept over a rod thinner than its triangles wraps flat faces
+        # round it; tests/physics/test_hard_collision.py); the fabric's own virtual particles do collide
         self.face_collision = bool(solver.config.face_collision) and face_points and not self.continuous
-        self.face_points = 0  # collision points added inside faces (see _add_face_points)
+        self.faces = np.zeros((0, 3), I32)  # the triangles that collide as faces (see _add_faces)
         # faces against mesh colliders' points: their contacts handle crossings themselves
         self.mesh_faces = bool(solver.config.face_collision) and face_points
         self.cloth_triangles = np.ascontiguousarray(model.triangles, I32)
@@ -224,7 +227,7 @@ class CollideStage(Stage):
         self._copy_meshes(start, end)
         self.kernel = self._kernel_for(start)
         if self.face_collision and not self._faces_sized:
-            self._add_face_points(start)
+            self._add_faces(start)
         self._iteration_arrays(plan)
 
     def _iteration_arrays(self, plan: FramePlan) -> None:
@@ -259,13 +262,13 @@ class CollideStage(Stage):
         meshes = colliders.mesh_triangles.shape[0] > 0
         convexes = colliders.convex_plane_offsets.shape[0] > 1
         serial, parallel = collide_particles_for(meshes, convexes, self.continuous)
-        # the virtual particles' and face points' kernel, kept to the same kinds
+        # the virtual particles' kernel, kept to the same kinds
         self.virtual_kernel = collide_virtual_for(meshes, convexes, self.continuous)
         return parallel if self.parallel else serial
 
-    def _add_face_points(self, colliders: ColliderArrays) -> None:
-        """Once, at the first frame: collision points inside the faces too large for the
-        smallest sphere or capsule (its radius plus margins), after the fabric's own."""
+    def _add_faces(self, colliders: ColliderArrays) -> None:
+        """Once, at the first frame: the faces too large for the smallest sphere or capsule
+        (its radius plus margins), which collide as faces with the spheres and capsules."""
         self._faces_sized = True
         spheres = np.flatnonzero(colliders.sphere_is_collider)
         ends = colliders.capsule_spheres
@@ -277,13 +280,7 @@ class CollideStage(Stage):
         if radii.shape[0] == 0:
             return
         model = self.solver.model
-        rows, weights = face_points(model.rest_pos, model.triangles, float(radii.min()), self.thickness)
-        if rows.shape[0] == 0:
-            return
-        rows[:, 3] += self.virtual_weights.shape[0]
-        self.virtual = np.ascontiguousarray(np.concatenate([self.virtual, rows]), I32)
-        self.virtual_weights = np.ascontiguousarray(np.concatenate([self.virtual_weights, weights]), self.real)
-        self.face_points = int(rows.shape[0])
+        self.faces = face_triangles(model.rest_pos, model.triangles, float(radii.min()), self.thickness)
 
     @staticmethod
     def _check_same_layout(start: ColliderArrays, end: ColliderArrays, plan: FramePlan) -> None:
@@ -432,14 +429,14 @@ class CollideStage(Stage):
     def fused_call(self) -> FusedCall:
         lines, used = _fused_lines(
             self.mesh_world[0].shape[0] > 0, self.plane_end.shape[0] > 0, self.convex_data.shape[0] > 0,
-            self.virtual.shape[0] > 0, self.mesh_faces and self.triangle_data.shape[0] > 0,
+            self.virtual.shape[0] > 0, self.faces.shape[0] > 0, self.mesh_faces and self.triangle_data.shape[0] > 0,
         )
         args = {name: value for name, value in self._fused_values() if name in used}
         kernels = {
             "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
             "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
             "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": self.virtual_kernel,
-            "collide_mesh_faces": collide_mesh_faces,
+            "collide_mesh_faces": collide_mesh_faces, "collide_faces": collide_faces,
         }
         return FusedCall(lines, args, {name: k for name, k in kernels.items() if name in used})
 
@@ -460,7 +457,7 @@ class CollideStage(Stage):
             ("cell_ranges", self.cell_ranges), ("grid", self.grid), ("continuous", self.continuous),
             ("mass_scale", self.mass_scale), ("meters_per_unit", self.meters_per_unit), ("virtual", self.virtual),
             ("virtual_weights", self.virtual_weights), ("cloth_triangles", self.cloth_triangles), ("owners", self.owners),
-            ("face_margin", self.face_margin), ("face_record", self.face_record),
+            ("face_margin", self.face_margin), ("face_record", self.face_record), ("faces", self.faces),
         )
 
     def end_fused_frame(self) -> None:
@@ -487,13 +484,15 @@ class CollideStage(Stage):
         self.kernel(
             shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale, self.meters_per_unit, state.cur[:0]
         )
-        # as in run(): a big kernel, compiled only for fabrics with virtual particles, or when
-        # begin_frame will add face points (face collision against spheres or capsules)
-        if self.virtual.shape[0] or (self.face_collision and colliders.has_spheres_or_capsules):
+        # as in run(): a big kernel, compiled only for fabrics with virtual particles
+        if self.virtual.shape[0]:
             self.virtual_kernel(
                 self.virtual[:0], self.virtual_weights, shapes, mesh, self.frame, state.prev[:0], self.continuous, self.mass_scale,
                 self.meters_per_unit, state.cur[:0],
             )
+        if self.face_collision and colliders.has_spheres_or_capsules:  # begin_frame may pick faces
+            collide_faces(self.faces[:0], shapes[0], shapes[1], state.prev[:0], self.mass_scale, self.meters_per_unit,
+                          state.cur[:0])
         if self.mesh_faces and colliders.mesh_triangles.shape[0]:
             collide_mesh_faces(
                 self.cloth_triangles[:0], self.owners[:0], *mesh, self.frame, state.prev[:0], self.face_margin,
@@ -537,6 +536,8 @@ class CollideStage(Stage):
                 self.virtual, self.virtual_weights, shapes, mesh, self.frame, state.prev, self.continuous, self.mass_scale,
                 self.meters_per_unit, state.cur,
             )
+        if self.faces.shape[0]:
+            collide_faces(self.faces, shapes[0], shapes[1], state.prev, self.mass_scale, self.meters_per_unit, state.cur)
         if self.mesh_faces and self.triangle_data.shape[0]:
             self.mesh_face_contacts = collide_mesh_faces(
                 self.cloth_triangles, self.owners, *mesh, self.frame, state.prev, self.face_margin, self.mass_scale,

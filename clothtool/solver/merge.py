@@ -14,7 +14,7 @@ What is global over a cloth cannot be merged that way, so such cloths are not gr
 (``merge_key`` returns None): a free cloth (damped relative to its own mean motion), a cloth
 on a track or attached to a body, sleep (a per-cloth stillness test), self- and cloth-cloth
 collision (a merged cloth would collide with the others), and colliders (the collide stage
-builds per-cloth face points and virtual particles). Cloths group only when every scalar
+builds per-cloth face lists and virtual particles). Cloths group only when every scalar
 the kernels take is the same: the material, the motion settings, the stages, the phases,
 the initial velocity, the units, and for tethers the particle and tether counts (the tether
 stiffness is scaled by their ratio).

@@ -1,7 +1,7 @@
 """The virtual-particle kernel's broad phase (clothtool.solver.kernels.collide_cull) changes
 no bit: collide_virtual against the exhaustive loop it replaced (every row tested against
-every collider), on tangled sheets with face points among spheres, capsules (one moving
-fast), convexes and a mesh, continuous collision off and on, float32 and float64."""
+every collider), on tangled sheets with runs of points per triangle among spheres, capsules
+(one moving fast), convexes and a mesh, continuous collision off and on, float32 and float64."""
 
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from clothtool._jit import KERNEL_OPTIONS
-from clothtool.solver.facepoints import face_points
 from clothtool.solver.kernels import collide as collide_module
 from clothtool.solver.kernels.collide import collide_virtual_for, friction_correction
 from clothtool.solver.kernels.collide_cull import capsules_far, segment_distance, spheres_far
@@ -134,6 +133,17 @@ def shapes_of(rng, dtype, convexes_and_mesh):
     return shapes, mesh
 
 
+def point_runs(rng, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rows i32 (v,4), weights (w,3)): a run of 1 to 36 rows per triangle (i, j, k, weight
+    row), each with its own random barycentric weights strictly inside the triangle."""
+    counts = rng.integers(1, 37, triangles.shape[0])
+    rows = np.empty((counts.sum(), 4), np.int32)
+    rows[:, :3] = np.repeat(triangles, counts, axis=0)
+    rows[:, 3] = np.arange(rows.shape[0])
+    weights = rng.uniform(0.05, 1.0, (rows.shape[0], 3))
+    return rows, weights / weights.sum(axis=1, keepdims=True)
+
+
 @pytest.mark.parametrize("dtype", [np.float32, np.float64], ids=["f32", "f64"])
 @pytest.mark.parametrize("kinds", [(False, False), (True, True)], ids=["spheres_capsules", "all_kinds"])
 @pytest.mark.parametrize("continuous", [False, True], ids=["discrete", "continuous"])
@@ -141,7 +151,7 @@ def test_broad_phase_gives_the_exhaustive_bits(dtype, kinds, continuous):
     rng = np.random.default_rng(11)
     meshes, convexes = kinds
     rest, cur0, prev, triangles = tangled_sheets(rng)
-    rows, patterns = face_points(rest, triangles, 0.05, 0.02)
+    rows, patterns = point_runs(np.random.default_rng(12), triangles)  # its own stream: the rest as before
     levels = np.bincount(np.unique(rows[:, :3], axis=0, return_counts=True)[1])
     assert levels.shape[0] > 9 and levels[1:].sum() > 100  # runs of several lengths, up to 36
     # the fabric's own virtual particles first (one row per triangle, shuffled), as the stage has them

@@ -1,6 +1,7 @@
 """Faces against sphere and capsule colliders: the face penetration measure against closed
-forms, and face collision (collision points inside faces too large for a collider) keeping a
-sheet's faces out of a rod thinner than its edges, where particle collision alone lets them in.
+forms, and face collision (each face too large for a collider collides its deepest point)
+keeping a sheet's faces out of a rod thinner than its edges, where particle collision alone
+lets them in.
 """
 
 from __future__ import annotations
@@ -10,9 +11,19 @@ import pytest
 
 from clothtool.collision.colliders import ColliderArrays
 from clothtool.settings import SolverConfig
-from clothtool.solver.facepoints import face_levels, face_points, subdivision_weights
+from clothtool.solver.facepoints import face_triangles, needs_face_collision
 from clothtool.solver.penetration import barycentric_grid, face_penetration, round_cone_distance
-from tests.physics.test_collision import THICKNESS, capsule, capsule_distance, cloth_fabric, run, solver_for, spheres
+from tests.physics.test_collision import (
+    THICKNESS,
+    capsule,
+    capsule_distance,
+    cloth_fabric,
+    max_speed,
+    merge,
+    run,
+    solver_for,
+    spheres,
+)
 
 # the measure's sampling error for these faces (spacing^2 / (8 (r - depth)), spacing = edge / 162;
 # under 25 micrometres for the 0.28 m hypotenuse against 1.5 cm) plus float32 input
@@ -107,25 +118,21 @@ def test_grids_are_barycentric():
         grid = barycentric_grid(level)
         assert grid.shape == ((level + 1) * (level + 2) // 2, 3)
         np.testing.assert_allclose(grid.sum(axis=1), 1.0)
-        weights = subdivision_weights(level)
-        assert weights.shape == (level * level, 3)
-        np.testing.assert_allclose(weights.sum(axis=1), 1.0)
-        assert weights.min() > 0  # strictly inside
-        # the centroids of the small triangles average to the triangle's centroid
-        np.testing.assert_allclose(weights.mean(axis=0), 1 / 3)
 
 
-# ------------------------------------------------------------------ the collision points
-def test_face_levels_follow_the_bulge():
-    """A right triangle with 5 cm legs over a 2 cm rod with a 2 mm margin: rho = sqrt(2 R t)
-    = 9.4 mm must cover (2/3) of the longest median (55.9 mm): level 4; a 1 m sphere needs
-    none (the circumradius 35 mm is within sqrt(2 * 1.002 * 0.002) = 63 mm)."""
+# ------------------------------------------------------------------ the faces that collide
+def test_faces_collide_where_the_bulge_exceeds_the_margin():
+    """A right triangle with 5 cm legs (circumradius 35.4 mm): over a 2 cm rod with a 2 mm
+    margin the hole sqrt(2 R t) is 9.4 mm, so it collides as a face; a 1 m sphere's is 63 mm
+    and its corners hold it off alone; so do a 1.2 cm triangle's (8.5 mm) over the rod."""
     points, triangles = flat_triangle(0.05)
-    assert face_levels(points, triangles, 0.02, 0.002).tolist() == [4]
-    assert face_levels(points, triangles, 1.0, 0.002).tolist() == [0]
-    rows, weights = face_points(points, triangles, 0.02, 0.002)
-    assert rows.shape == (16, 4) and weights.shape == (16, 3)
-    assert (rows[:, :3] == triangles[0]).all() and sorted(rows[:, 3]) == list(range(16))
+    assert needs_face_collision(points, triangles, 0.02, 0.002).tolist() == [True]
+    assert needs_face_collision(points, triangles, 1.0, 0.002).tolist() == [False]
+    small, _ = flat_triangle(0.012)
+    assert needs_face_collision(small, triangles, 0.02, 0.002).tolist() == [False]
+    both = np.concatenate([small, points])
+    two = np.array([[0, 1, 2], [3, 4, 5]], np.int32)
+    assert face_triangles(both, two, 0.02, 0.002).tolist() == [[3, 4, 5]]
 
 
 # ------------------------------------------------------------------ a sheet on a thin rod
@@ -158,9 +165,9 @@ def test_face_collision_keeps_every_face_within_the_thickness():
     assert max(d.depth for d in depths) > -3 * THICKNESS  # it does drape on the rod
 
 
-def test_no_face_points_with_continuous_collision():
+def test_no_face_collision_with_continuous_collision():
     """Continuous collision is for colliders crossing the cloth faster than their width per
-    iteration, which would push discrete face points out their far side: particles alone then."""
+    iteration, which would push discretely collided faces out their far side: particles alone then."""
     fabric = cloth_fabric(16, 0.75, 0.05)
     colliders = capsule(*ROD, (ROD_RADIUS, ROD_RADIUS))
     stages = {}
@@ -168,5 +175,32 @@ def test_no_face_points_with_continuous_collision():
         solver = solver_for(fabric, colliders, SolverConfig(continuous_collision=continuous))
         run(solver, 1)
         stages[continuous] = solver.stages[solver.stage_names.index("collide")]
-    assert stages[False].face_points == stages[False].virtual.shape[0] > 0
-    assert stages[True].face_points == stages[True].virtual.shape[0] == 0
+    assert stages[False].faces.shape[0] == fabric.triangles.shape[0]  # 5 cm edges over a 2 cm rod
+    assert stages[True].faces.shape[0] == 0
+    assert stages[False].virtual.shape[0] == stages[True].virtual.shape[0] == 0  # faces add no virtual particles
+
+
+# ------------------------------------------------------------------ a coarse sheet on two thin rods
+@pytest.mark.parametrize("precision", ["float64", "float32"])
+def test_a_coarse_sheet_hangs_on_rods_between_its_particles(precision):
+    """A 60 cm sheet of only 3 x 3 particles (30 cm edges) falls onto two 1 cm rods that run
+    under the middle of its faces, between its particle rows: no particle ever touches a rod,
+    so particle collision alone lets the sheet fall through; each face's deepest point holds
+    it, and within the cloth's thickness of the rods' surfaces, however large the faces."""
+    fabric = cloth_fabric(3, 0.6, 0.05)
+    rods = [((-0.5, 0.0, z), (0.5, 0.0, z)) for z in (-0.15, 0.15)]
+    colliders = merge(*(capsule(a, b, (0.01, 0.01)) for a, b in rods))
+    highest = {}
+    for faces in (False, True):
+        config = SolverConfig(face_collision=faces, precision=precision)
+        solver = solver_for(fabric, colliders, config)
+        depths = []
+        for frame in range(30):
+            run(solver, 1, first=frame)
+            depths.append(face_penetration(solver.world_points(), fabric.triangles, colliders, 1.0, THICKNESS).depth)
+        highest[faces] = float(solver.world_points()[:, 1].max())
+        if faces:
+            assert max(depths) <= THICKNESS, max(depths)
+            assert np.isfinite(solver.world_points()).all() and max_speed(solver) < 1.0
+    assert highest[False] < -0.5  # every particle fell past the rods
+    assert highest[True] > -0.1  # the sheet hangs on them

@@ -265,8 +265,8 @@ def _mesh_summary(found):
 def _make_point_correction(with_meshes: bool, with_convexes: bool, with_continuous: bool):
     """``point_correction`` with the code of mesh colliders, convex colliders and continuous
     collision each kept or left out (closure constants, pruned before typing, as in
-    ``_make_collide_particles``): the face points of a scene of spheres and capsules compile
-    a small kernel instead of the general one (most of a cold start's compile time)."""
+    ``_make_collide_particles``): the virtual particles of a scene of spheres and capsules
+    compile a small kernel instead of the general one (most of a cold start's compile time)."""
 
     def point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous):
         """The collision geometry of one point moving q -> p over the iteration, for integrators
@@ -432,7 +432,7 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
         a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
         order, each seeing the corrections before it; the fabric orders them in conflict-free
         batches, so this equals solving each batch at once. A run of rows of one triangle (the
-        face points) whose bounding ball is beyond every collider's reach is skipped whole
+        several virtual particles of one triangle) whose bounding ball is beyond every collider's reach is skipped whole
         (clothtool.solver.kernels.collide_cull): its rows would get no contact and no move."""
         zero = np.float32(0.0)
         one = np.float32(1.0)

@@ -1,7 +1,8 @@
 """Broad phase of the virtual-particle kernel: whether a triangle's points can touch a collider.
 
-collide_virtual's rows come in runs that share one triangle (the face points of
-clothtool.solver.facepoints: up to 36 per triangle). Every point of a row is a convex
+collide_virtual's rows may come in runs that share one triangle (the cooker batches a
+fabric's virtual particles conflict-free, so its runs are short; runs shorter than MIN_RUN
+are tested point by point). Every point of a row is a convex
 combination of the triangle's corners, at the iteration's start (q, from ``prev``) and end
 (p, from ``cur``), so every p and q, and every point of every path q -> p, lies in the ball
 of centre C (the current corners' centroid) and radius B (the farthest of the six corners
