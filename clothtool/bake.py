@@ -9,6 +9,7 @@ writes each frame as soon as it is simulated, so memory does not grow with the f
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from pathlib import Path
 from typing import Callable
@@ -311,13 +312,21 @@ def bake(scene: Scene, output, options: BakeOptions = BakeOptions()) -> BakeStat
     Returns the stats; raises UnstableError (with ``.stats``) when the bake goes unstable,
     after keeping the frames written so far under the partial name.
     """
-    from threadpoolctl import threadpool_limits
-
     # numpy's OpenBLAS keeps a thread per core and wakes them for every matrix product, even
     # the (n,3) @ (3,3) of a moving frame's output each frame: 22% of a 256^2 bake's CPU went
     # to spinning BLAS threads. The bake's parallel work is numba's; BLAS stays on this thread.
-    with threadpool_limits(limits=1, user_api="blas"):
+    with _blas_controller().limit(limits=1, user_api="blas"):
         return _bake(scene, output, options)
+
+
+@functools.lru_cache(maxsize=1)
+def _blas_controller():
+    """threadpoolctl's view of the loaded thread pools, found once per process: finding them
+    scans every loaded library (1.1 ms, which threadpool_limits paid on every bake). numpy
+    loads its BLAS on import, before the first bake."""
+    from threadpoolctl import ThreadpoolController
+
+    return ThreadpoolController()
 
 
 def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
