@@ -140,10 +140,10 @@ class CollideStage(Stage):
 
     name = "collide"
 
-    def __init__(self, solver, face_points: bool = True, continuous: bool | None = None):
+    def __init__(self, solver, faces: bool = True, continuous: bool | None = None):
         """``solver``: the cloth's integrator (model, state, config, environment, history).
         The implicit and explicit integrators pose the colliders with this stage and respond
-        their own way (``groups``): they pass ``face_points=False`` and ``continuous=True``
+        their own way (``groups``): they pass ``faces=False`` (no face collision) and ``continuous=True``
         (they have no discrete mode); None takes ``config.continuous_collision``."""
         super().__init__(solver)
         model = solver.model
@@ -165,10 +165,10 @@ class CollideStage(Stage):
         # a collider crossing the cloth faster than its width per iteration would push a face
         # out its far side (a sheet swept over a rod thinner than its triangles wraps flat faces
         # round it; tests/physics/test_hard_collision.py); the fabric's own virtual particles do collide
-        self.face_collision = bool(solver.config.face_collision) and face_points and not self.continuous
+        self.face_collision = bool(solver.config.face_collision) and faces and not self.continuous
         self.faces = np.zeros((0, 3), I32)  # the triangles that collide as faces (see _add_faces)
         # faces against mesh colliders' points: their contacts handle crossings themselves
-        self.mesh_faces = bool(solver.config.face_collision) and face_points
+        self.mesh_faces = bool(solver.config.face_collision) and faces
         self.cloth_triangles = np.ascontiguousarray(model.triangles, I32)
         self.sample_spacing = sample_spacing(model.rest_pos, self.cloth_triangles)
         self.owners = np.zeros((0, 4), I32)  # see clothtool.solver.meshfaces.collider_owners

@@ -117,7 +117,7 @@ class ExplicitClothSolver:
         # the colliders' motion over a frame, posed per substep: the position-based stage's
         self.colliders = None
         if getattr(environment, "colliders", None) is not None:
-            self.colliders = CollideStage(self, face_points=False, continuous=True)
+            self.colliders = CollideStage(self, faces=False, continuous=True)
 
         self.stage_names = ["forces"] + (["wind"] if self.has_wind else []) + ["integrate"]
         self.stage_names += ["collide"] if self.colliders is not None else []

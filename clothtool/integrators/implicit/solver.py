@@ -220,7 +220,7 @@ class ImplicitClothSolver:
         self.contact = np.zeros((n, 8))  # last contact per particle (kernels.implicit_collision)
         self.contact[:, 0] = NO_CONTACT
         # the colliders' motion over a frame, posed per step: the position-based stage's
-        self.collide_stage = CollideStage(self, face_points=False, continuous=True) if self.colliders is not None else None
+        self.collide_stage = CollideStage(self, faces=False, continuous=True) if self.colliders is not None else None
         self._plan: FramePlan | None = None
 
         self.last_cg = {"iterations": 0, "residual": 0.0}
