@@ -42,10 +42,12 @@ from clothtool.solver.kernels.collide_mesh_faces import collide_mesh_faces
 from clothtool.solver.kernels.collide_pose import (
     convex_shift,
     convex_translation,
+    pack_capsules,
+    pack_spheres,
     pack_triangles,
-    pose_and_pack_spheres,
     pose_planes,
     pose_points,
+    pose_spheres,
 )
 from clothtool.solver.kernels.collide_shapes import CAPSULE_COLUMNS
 from clothtool.solver.meshfaces import collider_owners, sample_spacing
@@ -84,18 +86,23 @@ def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtu
                  mesh_faces: bool) -> tuple[tuple[str, ...], frozenset[str]]:
     """The collide stage's frame-function lines for the collider kinds present, and the
     names they use (the same every frame of a scene: built once, not per frame)."""
-    lines = []
+    lines = [
+        "if it == 0:",
+        "    {pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha0}[it], 0, {sphere_start})",
+    ]
     if has_mesh:
-        lines += ["if it == 0:",
-                  "    if {pose_mesh}[it]:",
-                  "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha0}[it], 0, {mesh_start})",
-                  "else:",
-                  "    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
-    lines.append("{pose_and_pack_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha0}[it], {alpha1}[it], "
-                 "it == 0, {sphere_start}, {sphere_end}, {sphere_colliders}, {sphere_params}, {sphere_data}, "
-                 "{capsule_index}, {capsule_params}, {capsule_data})")
+        lines += ["    if {pose_mesh}[it]:",
+                  "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha0}[it], 0, {mesh_start})"]
+    lines += ["else:", *("    " + line for line in copy_lines("{sphere_end}", "{sphere_start}"))]
+    if has_mesh:
+        lines += ["    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
+    lines.append("{pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha1}[it], 1, {sphere_end})")
     if has_planes:
         lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[it], {alpha1}[it], 1, {plane_end})")
+    lines += [
+        "{pack_spheres}({sphere_start}, {sphere_end}, {sphere_colliders}, {sphere_params}, {sphere_data})",
+        "{pack_capsules}({sphere_start}, {sphere_end}, {capsule_index}, {capsule_params}, {capsule_data})",
+    ]
     if has_convexes:
         lines.append("{convex_shift}({convex_translation}, {frames}[it], {alpha_step}[it], {convex_data})")
     if has_mesh:
@@ -402,18 +409,19 @@ class CollideStage(Stage):
         alpha0, alpha1 = self.alpha0[i], self.alpha1[i]
         # kinds the scene lacks are skipped (zero-length arrays): their kernels never compile
         pose_mesh = self.pose_mesh[i]
-        if pose_mesh:
-            if i == 0:
+        if i == 0:
+            pose_spheres(*self.sphere_world, frame, alpha0, 0, self.sphere_start)
+            if pose_mesh:
                 pose_points(*self.mesh_world, frame, alpha0, 0, self.mesh_start)
-            else:  # the last iteration's end is this one's start
+        else:  # the last iteration's end is this one's start
+            np.copyto(self.sphere_start, self.sphere_end)
+            if pose_mesh:
                 np.copyto(self.mesh_start, self.mesh_end)
-        # the spheres' start: at alpha0 on the first iteration, else the last one's end
-        pose_and_pack_spheres(
-            *self.sphere_world, frame, alpha0, alpha1, i == 0, self.sphere_start, self.sphere_end, self.sphere_colliders,
-            self.sphere_params, self.sphere_data, self.capsule_index, self.capsule_params, self.capsule_data,
-        )
+        pose_spheres(*self.sphere_world, frame, alpha1, 1, self.sphere_end)
         if self.plane_end.shape[0]:
             pose_planes(*self.plane_world, frame, alpha1, 1, self.plane_end)
+        pack_spheres(self.sphere_start, self.sphere_end, self.sphere_colliders, self.sphere_params, self.sphere_data)
+        pack_capsules(self.sphere_start, self.sphere_end, self.capsule_index, self.capsule_params, self.capsule_data)
         if self.convex_data.shape[0]:
             convex_shift(self.convex_translation, frame, self.alpha_step[i], self.convex_data)
         if pose_mesh:
@@ -428,8 +436,8 @@ class CollideStage(Stage):
         )
         args = {name: value for name, value in self._fused_values() if name in used}
         kernels = {
-            "pose_and_pack_spheres": pose_and_pack_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
-            "convex_shift": convex_shift,
+            "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
+            "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
             "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": self.virtual_kernel,
             "collide_mesh_faces": collide_mesh_faces,
         }
@@ -498,10 +506,9 @@ class CollideStage(Stage):
         part of ``warm_up`` the implicit and explicit integrators use)."""
         colliders = self.solver.environment.colliders(0.0)
         spheres, points, planes = self.sphere_start[:0], self.mesh_start[:0], self.plane_end[:0]
-        pose_and_pack_spheres(
-            spheres, spheres, self.frame, 0.0, 0.0, True, spheres, spheres, self.sphere_colliders[:0], self.sphere_params[:0],
-            self.sphere_data[:0], self.capsule_index[:0], self.capsule_params[:0], self.capsule_data[:0],
-        )
+        pose_spheres(spheres, spheres, self.frame, 0.0, 0, spheres)
+        pack_spheres(spheres, spheres, self.sphere_colliders[:0], self.sphere_params[:0], self.sphere_data[:0])
+        pack_capsules(spheres, spheres, self.capsule_index[:0], self.capsule_params[:0], self.capsule_data[:0])
         if colliders.plane.shape[0]:
             pose_planes(planes, planes, self.frame, 0.0, 0, planes)
             convex_translation(planes, planes, self.convex_offsets[:1], self.convex_translation[:0])

@@ -6,10 +6,6 @@ float64 holds the frame's pose at the iteration's start (R0 rows 0-2, T0 row 3) 
 rows 4-6, T1 row 7), local x -> world R x + T; ``end`` picks one (0 or 1). A world point goes
 to R^T (x - T), a world plane n . x = d to (R^T n) . x = d - n . T. Interpolated plane
 normals are renormalised, with the offset divided by the same length.
-
-Spheres and capsules are posed and packed by one kernel, ``pose_and_pack_spheres``, over
-the helpers below: one compiled kernel instead of four (each kernel's compile has a fixed
-cost, a tenth of a second, and these are small).
 """
 
 from __future__ import annotations
@@ -20,7 +16,7 @@ from clothtool._jit import kernel
 from clothtool.solver.kernels.collide_shapes import capsule_axis
 
 
-@kernel(inline="always")
+@kernel
 def pose_points(world0, world1, frame, alpha, end, out):
     """out (m,3) = R^T (world0 + alpha (world1 - world0) - T) with the pose ``end``."""
     o = 4 * end
@@ -32,30 +28,13 @@ def pose_points(world0, world1, frame, alpha, end, out):
             out[i, d] = frame[o, d] * x + frame[o + 1, d] * y + frame[o + 2, d] * z
 
 
-@kernel(inline="always")
+@kernel
 def pose_spheres(world0, world1, frame, alpha, end, out):
     """out (s,4): centres as pose_points (which reads and writes columns 0-2 only), radii
     interpolated (at least 0)."""
     pose_points(world0, world1, frame, alpha, end, out)
     for i in range(out.shape[0]):
         out[i, 3] = max(world0[i, 3] + alpha * (world1[i, 3] - world0[i, 3]), 0.0)
-
-
-@kernel
-def pose_and_pack_spheres(world0, world1, frame, alpha0, alpha1, first, start, end, sphere_index, sphere_params,
-                          sphere_data, capsule_index, capsule_params, capsule_data):
-    """An iteration's spheres and capsules: the posed spheres ``start`` at alpha0 with pose 0
-    on the ``first`` iteration, else the last iteration's ``end``; ``end`` at alpha1 with pose
-    1; then their records (pack_spheres of spheres ``sphere_index``, pack_capsules)."""
-    if first:
-        pose_spheres(world0, world1, frame, alpha0, 0, start)
-    else:
-        for i in range(start.shape[0]):
-            for d in range(start.shape[1]):
-                start[i, d] = end[i, d]
-    pose_spheres(world0, world1, frame, alpha1, 1, end)
-    pack_spheres(start, end, sphere_index, sphere_params, sphere_data)
-    pack_capsules(start, end, capsule_index, capsule_params, capsule_data)
 
 
 @kernel
@@ -78,7 +57,7 @@ def pose_planes(world0, world1, frame, alpha, end, out):
         out[i, 3] = d - (nx * frame[o + 3, 0] + ny * frame[o + 3, 1] + nz * frame[o + 3, 2])
 
 
-@kernel(inline="always")
+@kernel
 def pack_spheres(start, end, colliders, params, out):
     """out (k,9) sphere records (collide_shapes) of spheres ``colliders`` (k,) from the posed
     spheres start/end (s,4): x0 y0 z0 r0+margin x1 y1 z1 r1+margin friction; params (k,2) is
@@ -93,7 +72,7 @@ def pack_spheres(start, end, colliders, params, out):
         out[k, 8] = params[k, 1]
 
 
-@kernel(inline="always")
+@kernel
 def pack_capsules(start, end, index, params, out):
     """out (c,24) capsule records (collide_shapes): end spheres index (c,2) of the posed
     spheres at the start then the end, radii plus margin, friction, and the end pose's axis
