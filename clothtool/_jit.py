@@ -22,6 +22,7 @@ os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 import numba  # noqa: E402  (after the environment above)
 from numba.core import types as numba_types  # noqa: E402
+from numba.core.datamodel import models, register_default  # noqa: E402
 from numba.core.dispatcher import Dispatcher  # noqa: E402
 from numba.core.registry import CPUDispatcher  # noqa: E402
 
@@ -29,7 +30,10 @@ from clothtool._kernel_cache import attach_cache  # noqa: E402
 
 # No ``cache=True``: numba's own cache is path-keyed and fails on read-only installs;
 # ``_compile`` attaches clothtool's cache instead.
-KERNEL_OPTIONS = dict(nogil=True, fastmath={"contract"}, error_model="numpy", boundscheck=False)
+# ``no_cfunc_wrapper``: nothing takes a kernel's C function pointer (numba.cfunc, first-class
+# function values); kernels call each other natively, Python calls them through their CPython
+# wrapper. Without it every kernel compiled a C wrapper too (unboxing each argument again).
+KERNEL_OPTIONS = dict(nogil=True, fastmath={"contract"}, error_model="numpy", boundscheck=False, no_cfunc_wrapper=True)
 
 
 def kernel(func=None, **overrides):
@@ -75,7 +79,29 @@ class DeviceKernel(CPUDispatcher):
 
     @property
     def _numba_type_(self):
-        return numba_types.Dispatcher(self.twin)
+        return _DeviceType(self.twin)
+
+
+class _DeviceType(numba_types.Dispatcher):
+    """The numba type of a device kernel's twin: calls are typed with integer literals made
+    plain integers. Typed as they are, a constant argument (``_row(m, 0, ...)``) or a variable
+    whose type inference has seen only its first, constant value (``start = 0`` before a loop)
+    compiled the helper once per literal; the machine code is the same (LLVM propagates the
+    constant after inlining). Boolean literals stay: they let numba prune a helper's branches."""
+
+    def get_call_type(self, context, args, kws):
+        return super().get_call_type(context, tuple(map(_plain_integers, args)), {k: _plain_integers(v) for k, v in kws.items()})
+
+
+register_default(_DeviceType)(models.OpaqueModel)  # as numba's own Dispatcher type
+
+
+def _plain_integers(ty):
+    if isinstance(ty, numba_types.IntegerLiteral):
+        return ty.literal_type
+    if isinstance(ty, numba_types.BaseTuple) and not isinstance(ty, numba_types.BaseNamedTuple):
+        return numba_types.BaseTuple.from_types([_plain_integers(t) for t in ty.types])
+    return ty
 
 
 def _compile_device(func, options: dict):
