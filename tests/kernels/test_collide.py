@@ -17,8 +17,10 @@ from clothtool.solver.kernels.collide import (
     convex_contacts,
     frame_motion,
     friction_correction,
+    movable_weights,
     point_correction,
     sphere_contacts,
+    weighted_point,
 )
 from tests.kernels._data import F32, assert_close, f32
 from tests.kernels.test_collide_mesh import build_grid, random_mesh
@@ -213,3 +215,22 @@ def test_point_correction_matches_reference(frame, continuous):
             assert_close(np.array([got[10]]), np.array([budget]), 2e-4, f"budget {i}")
     assert hits > 20
     assert (moves > 5) == continuous
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_triangle_point_and_movable_weights_match_reference(dtype):
+    """The point of a triangle at given weights, and the weights kept for the corners free at
+    both ends of the iteration (a corner pinned in cur or prev gets 0)."""
+    rng = np.random.default_rng(7)
+    for _ in range(40):
+        cur = np.asarray(rng.normal(size=(5, 4)), dtype)
+        prev = np.asarray(rng.normal(size=(5, 4)), dtype)
+        cur[:, 3] = np.where(rng.random(5) < 0.3, 0.0, 1.0)
+        prev[:, 3] = np.where(rng.random(5) < 0.3, 0.0, 1.0)
+        a, b, c = (int(i) for i in rng.choice(5, 3, replace=False))
+        wa, wb = (dtype(x) for x in rng.dirichlet([1.0, 1.0, 1.0])[:2])
+        wc = dtype(1.0) - wa - wb
+        assert_close(weighted_point(cur, a, b, c, wa, wb, wc), ref.weighted_point(cur, a, b, c, wa, wb, wc), 1e-6, "point")
+        got = movable_weights(cur, prev, a, b, c, wa, wb, wc)
+        want = ref.movable_weights(cur, prev, a, b, c, wa, wb, wc)
+        assert got[:3] == pytest.approx(want[:3], abs=0.0) and got[3] == pytest.approx(want[3], rel=1e-6)

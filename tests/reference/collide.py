@@ -13,9 +13,16 @@ from tests.reference import collide_mesh as mesh_ref
 from tests.reference import collide_shapes as shapes
 
 
-def _weighted(state, a, b, c, wa, wb, wc):
+def weighted_point(state, a, b, c, wa, wb, wc):
     s = np.asarray(state, np.float64)
     return tuple(wa * s[a, :3] + wb * s[b, :3] + wc * s[c, :3])
+
+
+def movable_weights(cur, prev, a, b, c, wa, wb, wc):
+    """The weights of the corners free (w > 0) at both ends of the iteration, else 0, and
+    the sum of their squares."""
+    kept = [w if prev[i, 3] > 0 and cur[i, 3] > 0 else 0.0 for i, w in zip((a, b, c), (wa, wb, wc))]
+    return (*kept, float(np.dot(kept, kept)))
 
 def _unit(x, y, z):
     v = np.asarray([x, y, z], np.float64)

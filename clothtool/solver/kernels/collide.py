@@ -409,13 +409,25 @@ collide_particles, collide_particles_parallel = collide_particles_for(True, True
 
 
 @kernel(inline="always")
-def _weighted(state, a, b, c, wa, wb, wc):
-    """wa state[a] + wb state[b] + wc state[c] (xyz)."""
+def weighted_point(state, a, b, c, wa, wb, wc):
+    """wa state[a] + wb state[b] + wc state[c] (xyz): a point of triangle abc."""
     return (
         wa * state[a, 0] + wb * state[b, 0] + wc * state[c, 0],
         wa * state[a, 1] + wb * state[b, 1] + wc * state[c, 1],
         wa * state[a, 2] + wb * state[b, 2] + wc * state[c, 2],
     )
+
+
+@kernel(inline="always")
+def movable_weights(cur, prev, a, b, c, wa, wb, wc):
+    """(ma, mb, mc, sum of their squares): a triangle point's weights kept for the corners
+    that move (0 for one pinned at the iteration's start or end). A correction c of the point
+    moves corner i by c m_i / sum(m^2), so the point itself moves by c."""
+    zero = np.float32(0.0)
+    ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
+    mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
+    mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
+    return ma, mb, mc, ma * ma + mb * mb + mc * mc
 
 
 def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuous: bool):
@@ -479,18 +491,15 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
                 wa = weights[virtual[r, 3], 0]
                 wb = weights[virtual[r, 3], 1]
                 wc = weights[virtual[r, 3], 2]
-                ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
-                mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
-                mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
-                norm = ma * ma + mb * mb + mc * mc
+                ma, mb, mc, norm = movable_weights(cur, prev, a, b, c, wa, wb, wc)
                 if norm <= zero:
                     continue
-                px, py, pz = _weighted(cur, a, b, c, wa, wb, wc)
+                px, py, pz = weighted_point(cur, a, b, c, wa, wb, wc)
                 # the point at the iteration's start: for continuous collision and meshes, else
                 # (the variants without them never read it) only for the friction of a contact
                 qx = qy = qz = zero
                 if with_continuous or with_meshes:
-                    qx, qy, qz = _weighted(prev, a, b, c, wa, wb, wc)
+                    qx, qy, qz = weighted_point(prev, a, b, c, wa, wb, wc)
                 # the point's own continuous move (to where it hit, on the side it came from) is part
                 # of its correction, shared out like the push-out. The variant for the collider kinds
                 # present: closure constants, so numba prunes the branches not taken before typing
@@ -522,7 +531,7 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
                 scale = one
                 if count > 0:
                     if not (with_continuous or with_meshes):
-                        qx, qy, qz = _weighted(prev, a, b, c, wa, wb, wc)
+                        qx, qy, qz = weighted_point(prev, a, b, c, wa, wb, wc)
                     fx, fy, fz = friction_correction(
                         px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
                     )

@@ -45,7 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
-from clothtool.solver.kernels.collide import friction_correction
+from clothtool.solver.kernels.collide import friction_correction, movable_weights, weighted_point
 from clothtool.solver.kernels.collide_mesh import closest_on_triangle
 from clothtool.solver.kernels.collide_shapes import capsule_distance, sphere_distance
 
@@ -204,18 +204,11 @@ def _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz, sx, sy, sz, friction
     surface that moved by s over the iteration (see the module docstring)."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
-    ma = wa if prev[a, 3] > zero and cur[a, 3] > zero else zero
-    mb = wb if prev[b, 3] > zero and cur[b, 3] > zero else zero
-    mc = wc if prev[c, 3] > zero and cur[c, 3] > zero else zero
-    norm = ma * ma + mb * mb + mc * mc
+    ma, mb, mc, norm = movable_weights(cur, prev, a, b, c, wa, wb, wc)
     if norm <= zero:
         return
-    px = wa * cur[a, 0] + wb * cur[b, 0] + wc * cur[c, 0]
-    py = wa * cur[a, 1] + wb * cur[b, 1] + wc * cur[c, 1]
-    pz = wa * cur[a, 2] + wb * cur[b, 2] + wc * cur[c, 2]
-    qx = wa * prev[a, 0] + wb * prev[b, 0] + wc * prev[c, 0]
-    qy = wa * prev[a, 1] + wb * prev[b, 1] + wc * prev[c, 1]
-    qz = wa * prev[a, 2] + wb * prev[b, 2] + wc * prev[c, 2]
+    px, py, pz = weighted_point(cur, a, b, c, wa, wb, wc)
+    qx, qy, qz = weighted_point(prev, a, b, c, wa, wb, wc)
     dx, dy, dz = -d * nx, -d * ny, -d * nz
     fx, fy, fz = friction_correction(px + dx, py + dy, pz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, -friction * d)
     cx, cy, cz = dx + fx, dy + fy, dz + fz
