@@ -11,7 +11,8 @@ halves the fabric kernel's instructions per constraint.
 Only what the kernels need: ``load4``/``store4`` on the flattened (n*4,) view at a float
 offset, lane-wise ``vadd``/``vsub``/``vmul`` (multiply-add pairs fuse, as ``fastmath=
 {"contract"}`` lets scalar code fuse), ``fill``, ``lane``, ``keep_w``, and ``transpose4`` /
-``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once).
+``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once), and
+``is_double`` (a compile-time test of an array's precision, for arithmetic that differs by it).
 The values never leave a kernel (no boxing), so a numba type with a primitive data model is
 all they need. The kernel cache is keyed on the contents of every clothtool source
 (clothtool._kernel_cache), so an edit here recompiles the kernels that inline it.
@@ -181,6 +182,21 @@ def w_lanes(typingctx, r0, r1, r2, r3):
         return _shuffle(builder, w01, w23, [0, 1, 4, 5])
 
     return r0(r0, r1, r2, r3), codegen
+
+
+@intrinsic
+def is_double(typingctx, array):
+    """Whether a float array holds float64 (the default state) rather than float32, as a
+    constant of the compiled code: a kernel branching on it keeps only one precision's
+    arithmetic (LLVM folds the branch), where numba would type both branches alike."""
+    if not (isinstance(array, types.Array) and array.dtype in _LLVM_FLOAT):
+        return None
+    double = array.dtype == types.float64
+
+    def codegen(context, builder, signature, args):
+        return context.get_constant(types.boolean, double)
+
+    return types.boolean(array), codegen
 
 
 
