@@ -136,9 +136,10 @@ def _edge_slack(rest, length2):
 @kernel(inline="always")
 def _slack_over(rest, length2, denominator):
     """float64: (er, 1/d) for er = 1 - r / |h| (0 when r = 0) and d = ``denominator``, from
-    one root and one division: t = 1 / (|h| d), er = (|h| - r) t d and 1/d = t |h|. Each is
-    within a few float64 roundings of its own size (|h| - r is exact when r is near |h|;
-    ``1 - r / |h|`` carries r / |h|'s rounding, up to 1e-16 absolute, however small er is)."""
+    one root and one division: t = 1 / (|h| d), er = (|h| - r) t d and 1/d = t |h|. 1/d is
+    within a few roundings of itself (|h|'s own rounding cancels); er within the rounding of
+    |h| (about 1e-16 absolute, as ``1 - r / |h|``, which adds the division's) plus a few
+    roundings of er itself (|h| - r is exact when r is near |h|)."""
     length = np.sqrt(length2)
     t = 1.0 / (length * denominator)
     er = (length - rest) * (t * denominator) if rest > np.float32(0.0) else 0.0
