@@ -11,7 +11,8 @@ halves the fabric kernel's instructions per constraint.
 Only what the kernels need: ``load4``/``store4`` on the flattened (n*4,) view at a float
 offset, lane-wise ``vadd``/``vsub``/``vmul`` (multiply-add pairs fuse, as ``fastmath=
 {"contract"}`` lets scalar code fuse), ``fill``, ``lane``, ``keep_w``, and ``transpose4`` /
-``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once).
+``w_lanes`` (one lane of four particles as one vector, to work on four constraints at once), and
+``is_double`` (a compile-time test of an array's precision, for arithmetic that differs by it).
 The values never leave a kernel (no boxing), so a numba type with a primitive data model is
 all they need. The kernel cache is keyed on the contents of every clothtool source
 (clothtool._kernel_cache), so an edit here recompiles the kernels that inline it.
@@ -146,24 +147,43 @@ def _shuffle(builder, a, b, mask):
     return builder.shuffle_vector(a, b, ir.Constant(ir.VectorType(_I32, 4), mask))
 
 
+# Shuffles of <4 x double> (two 128-bit halves) first pair lanes within each half (one cheap
+# unpack instruction each), then swap halves (one cross-half permute each); masks that cross
+# halves from the start were lowered to extra loads and permutes, ~10% of the float64 fabric
+# kernel. A <4 x float> is one 128-bit register, whose unpacks take the first masks below.
+
+
 @intrinsic
 def transpose4(typingctx, r0, r1, r2, r3):
     """Rows to columns: the x, y, z and w lanes of four vectors as four vectors."""
     if not (isinstance(r0, Vec4) and r0 == r1 == r2 == r3):
         return None
     result = types.UniTuple(r0, 4)
+    double = r0.dtype == types.float64
 
     def codegen(context, builder, signature, args):
-        low01 = _shuffle(builder, args[0], args[1], [0, 4, 1, 5])  # r0.x r1.x r0.y r1.y
-        high01 = _shuffle(builder, args[0], args[1], [2, 6, 3, 7])  # r0.z r1.z r0.w r1.w
-        low23 = _shuffle(builder, args[2], args[3], [0, 4, 1, 5])
-        high23 = _shuffle(builder, args[2], args[3], [2, 6, 3, 7])
-        columns = [
-            _shuffle(builder, low01, low23, [0, 1, 4, 5]),
-            _shuffle(builder, low01, low23, [2, 3, 6, 7]),
-            _shuffle(builder, high01, high23, [0, 1, 4, 5]),
-            _shuffle(builder, high01, high23, [2, 3, 6, 7]),
-        ]
+        if double:
+            even01 = _shuffle(builder, args[0], args[1], [0, 4, 2, 6])  # r0.x r1.x r0.z r1.z
+            odd01 = _shuffle(builder, args[0], args[1], [1, 5, 3, 7])  # r0.y r1.y r0.w r1.w
+            even23 = _shuffle(builder, args[2], args[3], [0, 4, 2, 6])
+            odd23 = _shuffle(builder, args[2], args[3], [1, 5, 3, 7])
+            columns = [
+                _shuffle(builder, even01, even23, [0, 1, 4, 5]),
+                _shuffle(builder, odd01, odd23, [0, 1, 4, 5]),
+                _shuffle(builder, even01, even23, [2, 3, 6, 7]),
+                _shuffle(builder, odd01, odd23, [2, 3, 6, 7]),
+            ]
+        else:
+            low01 = _shuffle(builder, args[0], args[1], [0, 4, 1, 5])  # r0.x r1.x r0.y r1.y
+            high01 = _shuffle(builder, args[0], args[1], [2, 6, 3, 7])  # r0.z r1.z r0.w r1.w
+            low23 = _shuffle(builder, args[2], args[3], [0, 4, 1, 5])
+            high23 = _shuffle(builder, args[2], args[3], [2, 6, 3, 7])
+            columns = [
+                _shuffle(builder, low01, low23, [0, 1, 4, 5]),
+                _shuffle(builder, low01, low23, [2, 3, 6, 7]),
+                _shuffle(builder, high01, high23, [0, 1, 4, 5]),
+                _shuffle(builder, high01, high23, [2, 3, 6, 7]),
+            ]
         return context.make_tuple(builder, result, columns)
 
     return result(r0, r1, r2, r3), codegen
@@ -174,13 +194,33 @@ def w_lanes(typingctx, r0, r1, r2, r3):
     """(r0.w, r1.w, r2.w, r3.w): the inverse masses of four particles."""
     if not (isinstance(r0, Vec4) and r0 == r1 == r2 == r3):
         return None
+    double = r0.dtype == types.float64
 
     def codegen(context, builder, signature, args):
+        if double:
+            w01 = _shuffle(builder, args[0], args[1], [1, 5, 3, 7])  # r0.y r1.y r0.w r1.w
+            w23 = _shuffle(builder, args[2], args[3], [1, 5, 3, 7])
+            return _shuffle(builder, w01, w23, [2, 3, 6, 7])
         w01 = _shuffle(builder, args[0], args[1], [3, 7, 3, 7])
         w23 = _shuffle(builder, args[2], args[3], [3, 7, 3, 7])
         return _shuffle(builder, w01, w23, [0, 1, 4, 5])
 
     return r0(r0, r1, r2, r3), codegen
+
+
+@intrinsic
+def is_double(typingctx, array):
+    """Whether a float array holds float64 (the default state) rather than float32, as a
+    constant of the compiled code: a kernel branching on it keeps only one precision's
+    arithmetic (LLVM folds the branch), where numba would type both branches alike."""
+    if not (isinstance(array, types.Array) and array.dtype in _LLVM_FLOAT):
+        return None
+    double = array.dtype == types.float64
+
+    def codegen(context, builder, signature, args):
+        return context.get_constant(types.boolean, double)
+
+    return types.boolean(array), codegen
 
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["load4", "store4", "vadd", "vsub", "vmul", "fill", "lane", "keep_w", "transpose4", "w_lanes"]
+__all__ = ["load4", "store4", "vadd", "vsub", "vmul", "fill", "lane", "keep_w", "transpose4", "w_lanes", "is_double"]
 
 
 def load4(array, index):
@@ -48,3 +48,7 @@ def transpose4(r0, r1, r2, r3):
 
 def w_lanes(r0, r1, r2, r3):
     return np.array([r0[3], r1[3], r2[3], r3[3]], r0.dtype)
+
+
+def is_double(array):
+    return array.dtype == np.float64

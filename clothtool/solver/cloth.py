@@ -31,6 +31,20 @@ FRAME_STAGE = "frame"  # the profile's name for a frame's iterations run in one 
 AHEAD_FRAMES = 32  # frames of a track's frame motion computed together (FrameMotionAhead)
 
 
+# Particle rows start on a cache line: a float64 row is 32 bytes, and numpy places a big
+# array 16 bytes past a page (glibc's block header), where every other row would straddle
+# two cache lines (loaded and stored in two pieces: ~8% of the fabric kernel's time).
+ROW_ALIGNMENT = 64
+
+
+def empty_rows(count: int, dtype) -> np.ndarray:
+    """An uninitialised (count, 4) C-contiguous array whose data starts on a ROW_ALIGNMENT boundary."""
+    dtype = np.dtype(dtype)
+    raw = np.empty(count * 4 * dtype.itemsize + ROW_ALIGNMENT, np.uint8)
+    start = -raw.ctypes.data % ROW_ALIGNMENT
+    return raw[start:start + count * 4 * dtype.itemsize].view(dtype).reshape(count, 4)
+
+
 @dataclasses.dataclass
 class ClothState:
     """Time-varying particle data: xyz and inverse mass in w (NvCloth's layout), f32 (n,4).
@@ -44,10 +58,12 @@ class ClothState:
 
     @classmethod
     def at_rest(cls, model: ClothModel, dtype=np.float32) -> "ClothState":
-        cur = np.empty((model.particle_count, 4), dtype)
+        cur = empty_rows(model.particle_count, dtype)
         cur[:, :3] = model.rest_pos
         cur[:, 3] = model.inv_mass
-        return cls(cur, cur.copy())
+        prev = empty_rows(model.particle_count, dtype)
+        prev[:] = cur
+        return cls(cur, prev)
 
 
 class ClothSolver:

@@ -12,7 +12,7 @@ from clothtool.cook.cooker import CookOptions, cook_fabric
 from clothtool.mesh.coloring import TripletScheduler
 from clothtool.mesh.shapes import grid
 from clothtool.solver.fabric_layers import phase_layers
-from clothtool.solver.kernels.fabric import solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
+from clothtool.solver.kernels.fabric import _slack_over, solve_phases, solve_phases_parallel, solve_xpbd, solve_xpbd_parallel
 from tests.kernels._data import F32, U, assert_close, f32
 from tests.reference import fabric as ref
 
@@ -292,6 +292,45 @@ def test_float64_state_matches_reference(cooked, kernel):
     for it, (g, w) in enumerate(zip(got, want)):
         assert g.dtype == np.float64
         assert_close(g, w, 1e-12, f"iteration {it}")
+
+
+def test_float64_slack_and_inverse_from_one_root_and_one_division():
+    """_slack_over (the float64 correction's er and 1/d) against the reference in extended
+    precision: er within float64 rounding of |h| (u = 2^-53 each for the root and the few
+    products), 1/d within a few roundings; from edges 30% off their rest length to 1e-12 off,
+    zero rest lengths, and denominators from FLT_EPSILON (two pinned ends) to large."""
+    rng = np.random.default_rng(31)
+    u = np.finfo(np.float64).eps / 2
+    length = rng.uniform(0.001, 3.0, 400)
+    off = rng.choice([0.3, 1e-3, 1e-6, 1e-9, 1e-12], 400) * rng.choice([-1.0, 1.0], 400)
+    rest = f32(length * (1.0 + off))
+    rest[::17] = 0.0
+    length2 = length * length + 1e-30
+    denominator = rng.choice([1.1920929e-07, 1.0, 3.7, 250.0], 400) * rng.uniform(1.0, 2.0, 400)
+    for r, l2, d in zip(rest, length2, denominator):
+        er, inverse = _slack_over(r, l2, d)
+        want_er, want_inverse = ref._slack_over(np.longdouble(r), np.longdouble(l2), np.longdouble(d))
+        assert abs(np.longdouble(er) - want_er) <= 2 * u + 6 * u * abs(want_er), (r, l2, d, er, want_er)
+        assert abs(np.longdouble(inverse) - want_inverse) <= 4 * u * want_inverse, (d, inverse, want_inverse)
+        if r == 0:
+            assert er == 0.0
+
+
+@pytest.mark.parametrize("kernel", [solve_xpbd, solve_xpbd_parallel], ids=["serial", "parallel"])
+def test_xpbd_float64_state_matches_reference(cooked, kernel):
+    """The XPBD kernels on float64 state (their own float64 arithmetic: one root and one
+    division per constraint), within float64 rounding of the reference."""
+    (indices, rest, _, set_offsets, phase_set_offsets, params), cur = cooked
+    alpha_tilde = random_compliance(np.random.default_rng(25), rest.shape[0])
+    args = (indices, rest, alpha_tilde, set_offsets, phase_set_offsets, params)
+    got = iterate(kernel, args, cur.astype(np.float64))
+    want = [cur.astype(np.float64)]
+    for _ in range(ITERATIONS):
+        want.append(ref.solve_xpbd(*args[:4], want[-1]))
+    for it, (g, w) in enumerate(zip(got, want[1:])):
+        assert g.dtype == np.float64
+        assert_close(g, w, 1e-12, f"iteration {it}")
+    assert np.abs(got[0] - cur).max() > 1e-3
 
 
 @pytest.fixture(scope="module")

@@ -141,3 +141,10 @@ def _xpbd_block(flat, indices, rest, alpha_tilde, params, p, first, count, at, l
 def _edge_slack(rest, length2):
     """1 - r / sqrt(length2), 0 when r = 0."""
     return 1.0 - rest / np.sqrt(length2) if rest > 0 else 0.0
+
+
+def _slack_over(rest, length2, denominator):
+    """(1 - r / sqrt(length2), 0 when r = 0; 1 / denominator), in the arguments' precision (the
+    kernel's float64 path gets both from one root and one division)."""
+    er = 1 - rest / np.sqrt(length2) if rest > 0 else 0 * length2
+    return er, 1 / denominator

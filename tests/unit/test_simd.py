@@ -6,7 +6,7 @@ import numba
 import numpy as np
 import pytest
 
-from clothtool._simd import fill, keep_w, lane, load4, store4, transpose4, vadd, vmul, vsub, w_lanes
+from clothtool._simd import fill, is_double, keep_w, lane, load4, store4, transpose4, vadd, vmul, vsub, w_lanes
 
 
 @numba.njit
@@ -84,3 +84,14 @@ def test_transpose_and_w_lanes(dtype):
     _columns(rows.reshape(-1), out)
     np.testing.assert_array_equal(out[:16].reshape(4, 4), rows.T)
     np.testing.assert_array_equal(out[16:], rows[:, 3])
+
+
+@numba.njit
+def _precision_of(array):
+    return is_double(array)
+
+
+@pytest.mark.parametrize("dtype,double", [(np.float32, False), (np.float64, True)])
+def test_is_double_tells_the_precision(dtype, double):
+    assert _precision_of(np.zeros(3, dtype)) is double
+    assert _precision_of(np.zeros((2, 4), dtype)) is double
