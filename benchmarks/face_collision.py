@@ -98,7 +98,8 @@ def hem_section(ax, result: dict, frame: int, centre: np.ndarray, title: str) ->
     scene = result["scene"]
     with read_cache(result["cache"]) as reader:
         points = reader.points("skirt", frame).astype(np.float64)
-    triangles = scene.cloths[0].fabric.triangles
+    fabric = scene.cloths[0].fabric
+    triangles = fabric.vertex_numbers(fabric.triangles)  # the cache holds points in the mesh's vertex order
     colliders = scene.colliders.at(scene.frame_time(frame))
     centres, radii = colliders.sphere_center.astype(np.float64), colliders.sphere_radius.astype(np.float64)
     height = centre[1]
