@@ -7,7 +7,7 @@ and with face collision, REPEAT times each, and prints per run the collide and s
 ms/frame (median over the repeats), the whole bake's simulation seconds and the face
 penetration from the report. Draws OUT/walk_legs.png (benchmarks/figures/walk_legs.png): the
 deepest face point inside a collider per frame for both bakes, and both skirts and the legs
-cut by the horizontal plane through the particle-only bake's closest contact at its worst frame.
+cut by the horizontal plane through the particle-only bake's deepest face point at its worst frame.
 
 With --shot, the same on a mesh collider instead: examples/shot/shot.usda (a UsdSkel-skinned
 low-poly body, 552 triangles, and a skirt of 936 triangles), where face collision is the
@@ -29,7 +29,7 @@ sys.path.insert(0, str(REPO))
 from clothtool.bake import BakeOptions, bake  # noqa: E402
 from clothtool.io.cache import read_cache  # noqa: E402
 from clothtool.loading import load_scene  # noqa: E402
-from clothtool.solver.penetration import round_cone_distance  # noqa: E402
+from clothtool.solver.penetration import barycentric_grid, round_cone_distance  # noqa: E402
 
 WALK = REPO / "examples" / "skirt" / "walk.toml"
 SHOT = REPO / "examples" / "shot" / "shot.usda"
@@ -81,16 +81,19 @@ def run_shot(out: Path, face_collision: bool, repeat: int) -> dict:
 
 
 def contact(result: dict, frame: int) -> np.ndarray:
-    """The skirt particle closest to a leg's surface at ``frame`` (where the legs press the skirt)."""
+    """The skirt's face point deepest inside a leg at ``frame`` (sampled on a barycentric grid
+    of every face): the section goes through it."""
     scene = result["scene"]
     with read_cache(result["cache"]) as reader:
         points = reader.points("skirt", frame).astype(np.float64)
+    fabric = scene.cloths[0].fabric
+    samples = np.einsum("gk,tkd->tgd", barycentric_grid(8), points[fabric.vertex_numbers(fabric.triangles)]).reshape(-1, 3)
     colliders = scene.colliders.at(scene.frame_time(frame))
     centres, radii = colliders.sphere_center.astype(np.float64), colliders.sphere_radius.astype(np.float64)
     ends = colliders.capsule_spheres
-    distance = round_cone_distance(points[:, None], centres[ends[:, 0]][None], centres[ends[:, 1]][None],
+    distance = round_cone_distance(samples[:, None], centres[ends[:, 0]][None], centres[ends[:, 1]][None],
                                    radii[ends[:, 0]][None], radii[ends[:, 1]][None]).min(axis=1)
-    return points[np.argmin(distance)]
+    return samples[np.argmin(distance)]
 
 
 def hem_section(ax, result: dict, frame: int, centre: np.ndarray, title: str) -> None:
@@ -117,15 +120,14 @@ def hem_section(ax, result: dict, frame: int, centre: np.ndarray, title: str) ->
         segments.append(np.array(crossing)[:, [0, 2]])
     for segment in segments:
         ax.plot(segment[:, 0], segment[:, 1], color="#3d6fb6", lw=1.2)
-    # the legs' sections: the round cone's circle at this height (radius interpolated along the axis)
-    angles = np.linspace(0, 2 * np.pi, 200)
+    # the legs' sections: where the round cones' signed distance is negative on the plane (a
+    # swinging leg's section is an ellipse, not the circle of its radius)
+    x, z = np.meshgrid(np.linspace(centre[0] - 0.12, centre[0] + 0.12, 241), np.linspace(centre[2] - 0.12, centre[2] + 0.12, 241))
+    plane = np.stack([x, np.full_like(x, height), z], axis=-1)
     for a, b in colliders.capsule_spheres:
-        ca, cb, ra, rb = centres[a], centres[b], radii[a], radii[b]
-        if not min(ca[1], cb[1]) <= height <= max(ca[1], cb[1]):
-            continue
-        s = (height - ca[1]) / (cb[1] - ca[1])
-        c, r = ca + s * (cb - ca), ra + s * (rb - ra)
-        ax.fill(c[0] + r * np.cos(angles), c[2] + r * np.sin(angles), color="#c8b8a8", alpha=0.8, lw=0)
+        inside = round_cone_distance(plane, centres[a], centres[b], radii[a], radii[b]) <= 0.0
+        if inside.any():
+            ax.contourf(x, z, inside.astype(float), levels=[0.5, 1.5], colors=["#c8b8a8"], alpha=0.8)
     ax.set_xlim(centre[0] - 0.12, centre[0] + 0.12)
     ax.set_ylim(centre[2] - 0.12, centre[2] + 0.12)
     ax.set_aspect("equal")
