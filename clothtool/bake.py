@@ -38,9 +38,8 @@ STATS_FIELDS = ("max_speed", "kinetic_energy", "max_strain", "tether_stretch")
 @dataclasses.dataclass(frozen=True)
 class BakeOptions:
     """percentiles: also compute p99 strain per frame (costs a sort per phase type);
-    penetration: also measure how deep the faces sink into sphere and capsule colliders each
-        frame (clothtool.solver.penetration, numpy: ~4 ms a frame for the walk's skirt, ~50 ms
-        for a 128^2 sheet on a sphere, so benchmarks and library bakes leave it off);
+    penetration: also measure how deep the faces sink into the colliders each frame
+        (clothtool.solver.penetration; the command line's bakes do);
     compression / save_every: override the scene's output settings when given;
     progress: called as progress(frames_done, frames_total) after each frame;
     metadata: extra string metadata for the cache header (e.g. a wedge's settings);
@@ -358,11 +357,12 @@ def _bake(scene: Scene, output, options: BakeOptions) -> BakeStats:
         stages_seen += [name for name in solver.stage_names if name not in stages_seen]
     stats.stages = stages_seen
 
-    mesh_penetration = options.penetration and scene.colliders is not None and any(c.kind == "mesh" for c in scene.colliders.colliders)
+    kinds = {c.kind for c in scene.colliders.colliders} if options.penetration and scene.colliders is not None else set()
+    mesh_penetration, shape_penetration = "mesh" in kinds, bool(kinds & {"sphere", "capsule"})
     with profiler.stage("jit warm-up"):
         for solver, meter in zip(solvers, meters):
             solver.warm_up()
-            meter.warm_up(options.percentiles, mesh_penetration)
+            meter.warm_up(options.percentiles, mesh_penetration, shape_penetration)
     if scene.colliders is not None:  # the colliders at every frame's time, sampled at once
         scene.colliders.prefetch([scene.frame_time(f) for f in range(scene.start_frame - scene.preroll, scene.end_frame + 1)])
     # Cloths that do not collide with each other need not interleave: each runs its frame

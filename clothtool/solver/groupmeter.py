@@ -58,8 +58,8 @@ class MemberMeter:
         self.group = group
         self.index = index
 
-    def warm_up(self, percentiles: bool = True, mesh_penetration: bool = False) -> None:
-        self.meter.warm_up(percentiles, mesh_penetration)
+    def warm_up(self, percentiles: bool = True, mesh_penetration: bool = False, shape_penetration: bool = False) -> None:
+        self.meter.warm_up(percentiles, mesh_penetration, shape_penetration)
 
     def measure(self, h: float, percentiles: bool, time: float | None = None) -> dict:
         if percentiles or (time is not None and self.meter.colliders is not None):

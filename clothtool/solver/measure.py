@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool.solver.kernels.stats import constraint_strain, frame_summary, motion_summary, tether_stretch, upper_percentile
-from clothtool.solver.penetration import face_penetration, warm_up_mesh_depths
+from clothtool.solver.penetration import face_penetration, warm_up_mesh_depths, warm_up_round_cone_depths
 
 PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
 
@@ -39,13 +39,15 @@ class ClothMeter:
         self.has_tethers = model.has_tethers
         self.colliders = solver.environment.colliders
 
-    def warm_up(self, percentiles: bool = True, mesh_penetration: bool = False) -> None:
+    def warm_up(self, percentiles: bool = True, mesh_penetration: bool = False, shape_penetration: bool = False) -> None:
         """Compile the kernels ``measure(h, percentiles)`` calls (with percentiles: the
-        strain-keeping ones, else the reducing one; with mesh_penetration, the measure of faces
-        in mesh colliders)."""
+        strain-keeping ones, else the reducing one; with mesh_penetration and
+        shape_penetration, the measure of faces in mesh colliders and in spheres and capsules)."""
         model, state = self.solver.model, self.solver.state
         if mesh_penetration:
             warm_up_mesh_depths()
+        if shape_penetration:
+            warm_up_round_cone_depths()
         if percentiles:
             constraint_strain(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur, self.strain[:0])
             upper_percentile(self.strain[:0], 99.0)

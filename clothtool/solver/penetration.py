@@ -1,24 +1,17 @@
-"""How deep a cloth's faces sink into its colliders (a measurement: numpy for spheres and capsules,
-clothtool.solver.kernels.penetration_mesh for triangle meshes).
+"""How deep a cloth's faces sink into its colliders (a measurement: compiled kernels for spheres
+and capsules, clothtool.solver.kernels.penetration_shapes, and for triangle meshes,
+clothtool.solver.kernels.penetration_mesh).
 
 Particles can all stay outside a collider while the faces between them sink into it: a
 capsule thinner than the cloth's edges slips between two particles. This measures the faces:
 for every cloth triangle and every sphere or capsule (a round cone between two spheres) the
 deepest point of the triangle inside the collider, i.e. minus the minimum over the triangle
-of the collider's signed distance. The collider's surface includes its own thickness
+of the collider's signed distance, found exactly (the candidates of the face collision's
+deepest-point search, every one scored). The collider's surface includes its own thickness
 (margin); the cloth's thickness is not subtracted: a face whose depth exceeds the cloth's
-thickness is "beyond the thickness".
-
-The minimum over a triangle is found coarse to fine: over a barycentric grid of level
-``COARSE`` (corners and edges included), then ``ROUNDS`` times over a hexagon of points a
-third of the previous spacing apart around the best point so far (clipped to the triangle).
-The signed distance of a convex collider is a convex function, so the minimum lies next to
-the best grid point; the final spacing is the longest edge / (COARSE * 3^ROUNDS), and the
-depth is off by about spacing^2 / (8 (r - depth)), micrometres for centimetre faces. Only
-pairs that may reach inside (coarse minimum within the coarse spacing; the distance is
-1-Lipschitz) are refined: larger clearances are reported from the coarse grid. Triangles far
-from every collider (bounding spheres outside) are skipped, so the cost scales with the faces
-near the colliders.
+thickness is "beyond the thickness". Triangles far from every collider (bounding spheres
+outside) are skipped. ``round_cone_distance`` and ``barycentric_grid`` (numpy) are for
+figures and tests that sample faces themselves.
 """
 
 from __future__ import annotations
@@ -28,10 +21,8 @@ import dataclasses
 import numpy as np
 
 from clothtool.collision.colliders import ColliderArrays
-
-COARSE = 6
-ROUNDS = 3
-_STEPS = 3  # hexagon radius of a refinement round, in its own spacing
+from clothtool.solver.kernels.collide_shapes import CAPSULE_COLUMNS
+from clothtool.solver.kernels.penetration_shapes import round_cone_depths
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,10 +53,13 @@ def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def round_cone_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray, ra: np.ndarray, rb: np.ndarray) -> np.ndarray:
     """Signed distance (negative inside) of points p (..., 3) to the convex hull of the spheres
     (a, ra) and (b, rb), each broadcast against p's leading axes (the exact round cone distance;
-    a sphere when a == b)."""
+    the bigger sphere when a == b or one sphere holds the other)."""
     ba = b - a
     l2 = _dot(ba, ba)
-    degenerate = l2 <= 1e-30
+    # one sphere holds the other (the cone formula then measures a hull that is not there)
+    held = np.sqrt(l2) <= np.abs(ra - rb)
+    a, ra = np.where(held[..., None] & (rb > ra)[..., None], b, a), np.where(held & (rb > ra), rb, ra)
+    degenerate = (l2 <= 1e-30) | held
     l2 = np.where(degenerate, 1.0, l2)
     rr = ra - rb
     a2 = l2 - rr * rr
@@ -100,62 +94,15 @@ def _round_cones(colliders: ColliderArrays) -> tuple[np.ndarray, np.ndarray, np.
     return a, b, ra, rb
 
 
-def _hexagon() -> np.ndarray:
-    """(h,3) barycentric offsets (i, j, -i-j) with |i|, |j|, |i+j| <= _STEPS."""
-    i, j = np.meshgrid(np.arange(-_STEPS, _STEPS + 1), np.arange(-_STEPS, _STEPS + 1), indexing="ij")
-    keep = np.abs(i + j) <= _STEPS
-    return np.stack([i[keep], j[keep], -(i[keep] + j[keep])], axis=1).astype(np.float64)
-
-
-def _distances(weights: np.ndarray, corners: np.ndarray, a, b, ra, rb) -> np.ndarray:
-    """Signed distances (pairs,k) of the points ``weights`` (pairs,k,3) of triangles ``corners``
-    (pairs,3,3) to each pair's round cone."""
-    samples = np.einsum("pkc,pcx->pkx", weights, corners)
-    return round_cone_distance(samples, a[:, None], b[:, None], ra[:, None], rb[:, None])
-
-
-def _minimum(corners: np.ndarray, a, b, ra, rb, reach: np.ndarray) -> np.ndarray:
-    """(pairs,) the minimum over each triangle of its collider's signed distance (see the module)."""
-    grid = barycentric_grid(COARSE)
-    distance = _distances(np.broadcast_to(grid, (corners.shape[0], *grid.shape)), corners, a, b, ra, rb)
-    best = distance.argmin(axis=1)
-    low = distance[np.arange(best.shape[0]), best]
-    spacing = 2.0 * reach / COARSE  # the coarse grid's spacing is at most the longest edge / COARSE
-    refine = np.flatnonzero(low <= spacing)
-    if refine.shape[0] == 0:
-        return low
-    centre = grid[best[refine]]
-    corners, a, b, ra, rb = corners[refine], a[refine], b[refine], ra[refine], rb[refine]
-    hexagon = _hexagon()
-    step = 1.0 / COARSE
-    for _ in range(ROUNDS):
-        step /= 3.0
-        weights = np.clip(centre[:, None] + step * hexagon[None], 0.0, None)
-        weights /= weights.sum(axis=-1, keepdims=True)
-        distance = _distances(weights, corners, a, b, ra, rb)
-        pick = distance.argmin(axis=1)
-        centre = weights[np.arange(pick.shape[0]), pick]
-        low[refine] = np.minimum(low[refine], distance[np.arange(pick.shape[0]), pick])
-    return low
-
-
 def _round_cone_depths(points: np.ndarray, triangles: np.ndarray, colliders: ColliderArrays) -> np.ndarray:
     """(t,) float64: how deep each triangle reaches into the spheres and capsules (-inf: near none)."""
     depth_per_triangle = np.full(triangles.shape[0], -np.inf)
     a, b, ra, rb = _round_cones(colliders)
     if a.shape[0] == 0 or triangles.shape[0] == 0:
         return depth_per_triangle
-    corners = points[triangles]  # (t,3,3)
-    centroid = corners.mean(axis=1)
-    reach = np.linalg.norm(corners - centroid[:, None], axis=-1).max(axis=1)
-    # the distance is 1-Lipschitz: a triangle reaches into a collider only when its centroid
-    # is within the triangle's bounding radius of it
-    near = round_cone_distance(centroid[:, None], a[None], b[None], ra[None], rb[None]) <= reach[:, None]
-    tri, col = np.nonzero(near)
-    if tri.shape[0] == 0:
-        return depth_per_triangle
-    distance = _minimum(corners[tri], a[col], b[col], ra[col], rb[col], reach[tri])
-    np.maximum.at(depth_per_triangle, tri, -distance)
+    cones = np.zeros((a.shape[0], CAPSULE_COLUMNS))  # capsule records: ends and radii, axis terms
+    cones[:, 8:11], cones[:, 11], cones[:, 12:15], cones[:, 15] = a, ra, b, rb
+    round_cone_depths(points, np.ascontiguousarray(triangles, np.int32), cones, depth_per_triangle)
     return depth_per_triangle
 
 
@@ -221,6 +168,13 @@ def warm_up_mesh_depths() -> None:
         mesh_margin=np.full(1, 0.01, np.float32), mesh_friction=np.zeros(1, np.float32),
     )
     mesh_depths(np.array([[0.2, 0.2, 0.2], [2, 0, 0], [0, 2, 0]], np.float64), faces[:1], colliders)
+
+
+def warm_up_round_cone_depths() -> None:
+    """Compile the spheres' and capsules' measure (round_cone_depths) for the types a bake passes."""
+    triangle = np.array([[0, 0, 0], [1, 0, 0], [0, 0, 1]], np.float64)
+    cones = np.zeros((0, CAPSULE_COLUMNS))
+    round_cone_depths(triangle, np.array([[0, 1, 2]], np.int32), cones, np.full(1, -np.inf))
 
 
 def face_penetration(

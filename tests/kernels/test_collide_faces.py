@@ -20,7 +20,7 @@ def _deepest(corners, capsule_data):
     """capsule_deepest of a (3,3) triangle against capsule 0, callable from Python."""
     p = corners
     return capsule_deepest(p[0, 0], p[0, 1], p[0, 2], p[1, 0], p[1, 1], p[1, 2], p[2, 0], p[2, 1], p[2, 2],
-                           _capsule_terms(capsule_data, 0))
+                           _capsule_terms(capsule_data, 0), False)
 
 
 @kernel

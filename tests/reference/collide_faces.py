@@ -146,9 +146,10 @@ def _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz, sx, sy, sz, friction
     return cur
 
 
-def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T):
+def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T, exact=True):
     """(g, wa, wb, wc): the least signed distance of the triangle p0 p1 p2 from the capsule of
-    terms T (ax, ay, az, ra, bx, by, bz, rb, ...) and the barycentric weights of its point."""
+    terms T (ax, ay, az, ra, bx, by, bz, rb, ...) and the barycentric weights of its point
+    (always exact: the kernel's non-exact mode may only give inf where nothing is inside)."""
     corners = np.array([[p0x, p0y, p0z], [p1x, p1y, p1z], [p2x, p2y, p2z]], np.float64)
     d, w = deepest(corners, T[0:3], T[3], T[4:7], T[7])
     return (d, *w)

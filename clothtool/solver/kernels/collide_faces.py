@@ -123,7 +123,7 @@ def _end_sphere(cx, cy, cz, r, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z):
 
 
 @kernel(inline="always")
-def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T):
+def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T, exact):
     """(g, wa, wb, wc): the deepest point of triangle p0 p1 p2 against the capsule of terms T
     (_capsule_terms) as barycentric weights w, and the capsule's signed distance g there (from
     the candidates' own arithmetic: collide_faces takes collide_shapes.capsule_distance's).
@@ -132,7 +132,12 @@ def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T):
     from it (not less than the capsule's), an edge's or the crossing's by G when the
     capsule's closest sphere there lies inside the axis (then G is the capsule's distance;
     otherwise an end candidate covers it). The least score is the triangle's least distance
-    and its candidate a point where it is reached."""
+    and its candidate a point where it is reached.
+
+    Without ``exact`` (a constant: the collision) a triangle with no point inside the capsule
+    may give g = inf, and end spheres beyond the capsule's reach are not tried; with it (the
+    measurement, clothtool.solver.kernels.penetration_shapes) every candidate is scored, so g
+    is the least distance also when it is positive (the clearance)."""
     zero = np.float32(0.0)
     one = np.float32(1.0)
     ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, reach2 = T
@@ -159,7 +164,7 @@ def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T):
         e12 = (d2x - d1x) ** 2 + (d2y - d1y) ** 2 + (d2z - d1z) ** 2 - (t2 - t1) ** 2
         e20 = (d0x - d2x) ** 2 + (d0y - d2y) ** 2 + (d0z - d2z) ** 2 - (t0 - t2) ** 2
         r = max(ra, rb)
-        if min(q0, q1, q2) - max(e01, e12, e20) * np.float32(1.0 / 3.0) > r * r:
+        if not exact and min(q0, q1, q2) - max(e01, e12, e20) * np.float32(1.0 / 3.0) > r * r:
             return np.float32(np.inf), one, zero, zero
         # the edges
         best, s = _edge_minimum(p0x, p0y, p0z, p1x, p1y, p1z, T)
@@ -187,11 +192,11 @@ def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T):
         # the end spheres, when the triangle reaches their side of the cone: s = t - rho tan(alpha)
         # is at least min t - reach |tan(alpha)| over the points within reach (rho <= reach)
         slant = np.sqrt(reach2) * abs(sin_a)  # reach |tan(alpha)|, times cos(alpha)
-        if min(t0, t1, t2) * cos_a <= slant:
+        if exact or min(t0, t1, t2) * cos_a <= slant:
             g, ea, eb, ec = _end_sphere(ax, ay, az, ra, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
             if g < best:
                 best, wa, wb, wc = g, ea, eb, ec
-        if (max(t0, t1, t2) - length) * cos_a >= -slant:
+        if exact or (max(t0, t1, t2) - length) * cos_a >= -slant:
             g, ea, eb, ec = _end_sphere(bx, by, bz, rb, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
             if g < best:
                 best, wa, wb, wc = g, ea, eb, ec
@@ -278,7 +283,7 @@ def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per
                              S[k, 6] - S[k, 2], S[k, 8], mass_scale, meters_per_unit)
                 continue
             j = k - spheres
-            g, wa, wb, wc = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, _capsule_terms(C, j))
+            g, wa, wb, wc = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, _capsule_terms(C, j), False)
             if not g < 0.0:
                 continue
             # the response takes the capsule's own distance and normal there (the particles')
