@@ -38,18 +38,6 @@ import numba
 import numpy as np
 
 from clothtool._jit import kernel, serial_and_parallel
-from clothtool.solver.kernels.collide_cull import (
-    MIN_RUN,
-    boxes_miss,
-    capsules_far,
-    collider_boxes,
-    convexes_far,
-    mesh_far,
-    run_end,
-    spheres_far,
-    triangle_ball,
-    triangle_box,
-)
 from clothtool.solver.kernels.collide_mesh import mesh_contact
 from clothtool.solver.kernels.collide_shapes import (
     REACH,
@@ -443,113 +431,74 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
         x += c * w / sum(w^2) over the movable ones, so the point itself moves by c;
         a particle's inverse mass is scaled by 1 + (scale - 1) w (NvCloth). Rows are processed in
         order, each seeing the corrections before it; the fabric orders them in conflict-free
-        batches, so this equals solving each batch at once. A run of rows of one triangle (the
-        several virtual particles of one triangle) whose bounding ball is beyond every collider's reach is skipped whole
-        (clothtool.solver.kernels.collide_cull): its rows would get no contact and no move."""
+        batches, so this equals solving each batch at once."""
         zero = np.float32(0.0)
         one = np.float32(1.0)
-        sphere_data, capsule_data, planes, offsets, convex_data = shapes
-        cell_start = mesh[1]
-        spheres = sphere_data.shape[0] > 0
-        capsules = capsule_data.shape[0] > 0
-        swept = with_continuous and continuous  # spheres and capsules swept over the iteration
-        # first test of a run: its corners' box against the spheres' and capsules' boxes
-        boxes = np.empty((sphere_data.shape[0] + capsule_data.shape[0], 6))
-        collider_boxes(sphere_data, capsule_data, swept, boxes)
-        start = 0
-        while start < virtual.shape[0]:
-            end = run_end(virtual, start)
-            if end - start >= MIN_RUN:
-                a = virtual[start, 0]
-                b = virtual[start, 1]
-                c = virtual[start, 2]
-                lx, ly, lz, hx, hy, hz = triangle_box(cur, prev, a, b, c)
-                far = np.isfinite(lx + ly + lz + hx + hy + hz) and boxes_miss(lx, ly, lz, hx, hy, hz, boxes)
-                if far and not with_convexes and not with_meshes:
-                    start = end
-                    continue
-                ox, oy, oz, radius = triangle_ball(cur, prev, a, b, c)
-                if not far:  # the boxes meet: the closer test, sphere by sphere and capsule by capsule
-                    far = np.isfinite(ox + oy + oz + radius)
-                    if far and spheres:
-                        far = spheres_far(ox, oy, oz, radius, sphere_data, swept)
-                    if far and capsules:
-                        far = capsules_far(ox, oy, oz, radius, capsule_data, swept)
+        for r in range(virtual.shape[0]):
+            a = virtual[r, 0]
+            b = virtual[r, 1]
+            c = virtual[r, 2]
+            wa = weights[virtual[r, 3], 0]
+            wb = weights[virtual[r, 3], 1]
+            wc = weights[virtual[r, 3], 2]
+            ma, mb, mc, norm = movable_weights(cur, prev, a, b, c, wa, wb, wc)
+            if norm <= zero:
+                continue
+            px, py, pz = weighted_point(cur, a, b, c, wa, wb, wc)
+            # the point at the iteration's start: for continuous collision and meshes, else
+            # (the variants without them never read it) only for the friction of a contact
+            qx = qy = qz = zero
+            if with_continuous or with_meshes:
+                qx, qy, qz = weighted_point(prev, a, b, c, wa, wb, wc)
+            # the point's own continuous move (to where it hit, on the side it came from) is part
+            # of its correction, shared out like the push-out. The variant for the collider kinds
+            # present: closure constants, so numba prunes the branches not taken before typing
+            if with_meshes:
                 if with_convexes:
-                    if far and offsets.shape[0] > 1:
-                        far = convexes_far(ox, oy, oz, radius, planes, offsets, convex_data)
-                if with_meshes:
-                    if far and mesh[0].shape[0] > 0:
-                        far = mesh_far(ox, oy, oz, radius, cell_start, mesh[4], frame)
-                if far:
-                    start = end
-                    continue
-            for r in range(start, end):
-                a = virtual[r, 0]
-                b = virtual[r, 1]
-                c = virtual[r, 2]
-                wa = weights[virtual[r, 3], 0]
-                wb = weights[virtual[r, 3], 1]
-                wc = weights[virtual[r, 3], 2]
-                ma, mb, mc, norm = movable_weights(cur, prev, a, b, c, wa, wb, wc)
-                if norm <= zero:
-                    continue
-                px, py, pz = weighted_point(cur, a, b, c, wa, wb, wc)
-                # the point at the iteration's start: for continuous collision and meshes, else
-                # (the variants without them never read it) only for the friction of a contact
-                qx = qy = qz = zero
-                if with_continuous or with_meshes:
-                    qx, qy, qz = weighted_point(prev, a, b, c, wa, wb, wc)
-                # the point's own continuous move (to where it hit, on the side it came from) is part
-                # of its correction, shared out like the push-out. The variant for the collider kinds
-                # present: closure constants, so numba prunes the branches not taken before typing
-                if with_meshes:
-                    if with_convexes:
-                        if with_continuous:
-                            result = point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                        else:
-                            result = _with_both(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                    elif with_continuous:
-                        result = _with_meshes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                    else:
-                        result = _with_meshes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                elif with_convexes:
                     if with_continuous:
-                        result = _with_convexes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                        result = point_correction(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
                     else:
-                        result = _with_convexes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                        result = _with_both(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
                 elif with_continuous:
-                    result = _spheres_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                    result = _with_meshes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
                 else:
-                    result = _spheres_only(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
-                count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = result
-                if count == 0 and mx == zero and my == zero and mz == zero:
+                    result = _with_meshes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            elif with_convexes:
+                if with_continuous:
+                    result = _with_convexes_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+                else:
+                    result = _with_convexes(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            elif with_continuous:
+                result = _spheres_continuous(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            else:
+                result = _spheres_only(px, py, pz, qx, qy, qz, shapes, mesh, frame, continuous)
+            count, mx, my, mz, dx, dy, dz, sx, sy, sz, budget = result
+            if count == 0 and mx == zero and my == zero and mz == zero:
+                continue
+            cx = mx
+            cy = my
+            cz = mz
+            scale = one
+            if count > 0:
+                if not (with_continuous or with_meshes):
+                    qx, qy, qz = weighted_point(prev, a, b, c, wa, wb, wc)
+                fx, fy, fz = friction_correction(
+                    px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
+                )
+                cx += dx + fx
+                cy += dy + fy
+                cz += dz + fz
+            if count > 0 and mass_scale > 0.0:
+                square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
+                scale = one / (one + mass_scale * square)
+            for particle, m in ((a, ma), (b, mb), (c, mc)):
+                if m == zero:
                     continue
-                cx = mx
-                cy = my
-                cz = mz
-                scale = one
-                if count > 0:
-                    if not (with_continuous or with_meshes):
-                        qx, qy, qz = weighted_point(prev, a, b, c, wa, wb, wc)
-                    fx, fy, fz = friction_correction(
-                        px + mx + dx, py + my + dy, pz + mz + dz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget
-                    )
-                    cx += dx + fx
-                    cy += dy + fy
-                    cz += dz + fz
-                if count > 0 and mass_scale > 0.0:
-                    square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
-                    scale = one / (one + mass_scale * square)
-                for particle, m in ((a, ma), (b, mb), (c, mc)):
-                    if m == zero:
-                        continue
-                    share = m / norm
-                    cur[particle, 0] += cx * share
-                    cur[particle, 1] += cy * share
-                    cur[particle, 2] += cz * share
-                    cur[particle, 3] *= one + (scale - one) * m
-            start = end
+                share = m / norm
+                cur[particle, 0] += cx * share
+                cur[particle, 1] += cy * share
+                cur[particle, 2] += cz * share
+                cur[particle, 3] *= one + (scale - one) * m
 
     return collide_virtual
 
