@@ -19,6 +19,7 @@ from clothtool.solver.kernels.collide import (
     friction_correction,
     movable_weights,
     point_correction,
+    share_out,
     sphere_contacts,
     weighted_point,
 )
@@ -219,8 +220,9 @@ def test_point_correction_matches_reference(frame, continuous):
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_triangle_point_and_movable_weights_match_reference(dtype):
-    """The point of a triangle at given weights, and the weights kept for the corners free at
-    both ends of the iteration (a corner pinned in cur or prev gets 0)."""
+    """The point of a triangle at given weights, the weights kept for the corners free at
+    both ends of the iteration (a corner pinned in cur or prev gets 0), and a correction
+    shared out through them."""
     rng = np.random.default_rng(7)
     for _ in range(40):
         cur = np.asarray(rng.normal(size=(5, 4)), dtype)
@@ -234,3 +236,9 @@ def test_triangle_point_and_movable_weights_match_reference(dtype):
         got = movable_weights(cur, prev, a, b, c, wa, wb, wc)
         want = ref.movable_weights(cur, prev, a, b, c, wa, wb, wc)
         assert got[:3] == pytest.approx(want[:3], abs=0.0) and got[3] == pytest.approx(want[3], rel=1e-6)
+        if got[3] > 0:  # the correction shared out to the corners that move, capped or not
+            correction = [dtype(x) for x in rng.normal(0.0, 0.01, 3)]
+            scale, cap = dtype(rng.uniform(0.5, 1.0)), dtype(rng.choice([np.inf, 1.2]))
+            moved = cur.copy()
+            share_out(moved, a, b, c, *got, *correction, scale, cap)
+            assert_close(moved, ref.share_out(cur, a, b, c, *got, *correction, scale, cap), 1e-6, "shared out")

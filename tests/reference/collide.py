@@ -24,6 +24,17 @@ def movable_weights(cur, prev, a, b, c, wa, wb, wc):
     kept = [w if prev[i, 3] > 0 and cur[i, 3] > 0 else 0.0 for i, w in zip((a, b, c), (wa, wb, wc))]
     return (*kept, float(np.dot(kept, kept)))
 
+def share_out(cur, a, b, c, ma, mb, mc, norm, cx, cy, cz, scale, cap):
+    """Returns cur with each corner of nonzero kept weight m moved by c min(m / norm, cap)
+    and its w scaled by 1 + (scale - 1) m."""
+    out = np.array(cur, np.float64)
+    for particle, m in ((a, ma), (b, mb), (c, mc)):
+        if m != 0.0:
+            out[particle, :3] += np.array([cx, cy, cz]) * min(m / norm, cap)
+            out[particle, 3] *= 1.0 + (scale - 1.0) * m
+    return out
+
+
 def _unit(x, y, z):
     v = np.asarray([x, y, z], np.float64)
     length = np.linalg.norm(v)

@@ -418,6 +418,22 @@ def movable_weights(cur, prev, a, b, c, wa, wb, wc):
     return ma, mb, mc, ma * ma + mb * mb + mc * mc
 
 
+@kernel(inline="always")
+def share_out(cur, a, b, c, ma, mb, mc, norm, cx, cy, cz, scale, cap):
+    """Move a triangle point by its correction c through the corners that move (their kept
+    weights m, ``movable_weights``): corner i by c min(m_i / sum(m^2), cap), its inverse mass
+    scaled by 1 + (scale - 1) m_i (the collision mass scale, NvCloth)."""
+    one = np.float32(1.0)
+    for particle, m in ((a, ma), (b, mb), (c, mc)):
+        if m == np.float32(0.0):
+            continue
+        share = min(m / norm, cap)
+        cur[particle, 0] += cx * share
+        cur[particle, 1] += cy * share
+        cur[particle, 2] += cz * share
+        cur[particle, 3] *= one + (scale - one) * m
+
+
 def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuous: bool):
     """``collide_virtual`` over the ``point_correction`` kept to the collider kinds present.
     It picks its variant by closure constants among the module's globals, not by capturing
@@ -491,14 +507,7 @@ def _make_collide_virtual(with_meshes: bool, with_convexes: bool, with_continuou
             if count > 0 and mass_scale > 0.0:
                 square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
                 scale = one / (one + mass_scale * square)
-            for particle, m in ((a, ma), (b, mb), (c, mc)):
-                if m == zero:
-                    continue
-                share = m / norm
-                cur[particle, 0] += cx * share
-                cur[particle, 1] += cy * share
-                cur[particle, 2] += cz * share
-                cur[particle, 3] *= one + (scale - one) * m
+            share_out(cur, a, b, c, ma, mb, mc, norm, cx, cy, cz, scale, np.float32(np.inf))  # the point moves by c
 
     return collide_virtual
 

@@ -45,7 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
-from clothtool.solver.kernels.collide import friction_correction, movable_weights, weighted_point
+from clothtool.solver.kernels.collide import friction_correction, movable_weights, share_out, weighted_point
 from clothtool.solver.kernels.collide_mesh import closest_on_triangle
 from clothtool.solver.kernels.collide_shapes import capsule_distance, sphere_distance
 
@@ -221,14 +221,7 @@ def _correct(cur, prev, a, b, c, wa, wb, wc, d, nx, ny, nz, sx, sy, sz, friction
     if mass_scale > 0.0:
         square = (dx * dx + dy * dy + dz * dz) * meters_per_unit * meters_per_unit
         scale = one / (one + mass_scale * square)
-    for particle, m in ((a, ma), (b, mb), (c, mc)):
-        if m == zero:
-            continue
-        share = min(m / norm, MAX_SHARE)
-        cur[particle, 0] += cx * share
-        cur[particle, 1] += cy * share
-        cur[particle, 2] += cz * share
-        cur[particle, 3] *= one + (scale - one) * m
+    share_out(cur, a, b, c, ma, mb, mc, norm, cx, cy, cz, scale, MAX_SHARE)
 
 
 @kernel(device=True)
