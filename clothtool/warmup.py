@@ -28,7 +28,6 @@ from clothtool.io.h5chunks import shuffle
 from clothtool.loading import load_scene
 from clothtool.sim.integrators import CAPABILITIES, integrator_spec
 from clothtool.solver.kernels.rows import gather_xyz
-from clothtool.solver.penetration import warm_up_mesh_depths, warm_up_round_cone_depths
 
 GRID = 6  # particles per side of the warm-up cloths
 
@@ -196,7 +195,9 @@ def warm_up_kernels(
             scene_path.write_text(variant.scene_text())
             scene = load_scene(scene_path, list(variant.overrides))
             try:
-                bake(scene, "null", BakeOptions(percentiles=True))
+                # the options of the command line's bakes: their measures compile too (the
+                # face penetration of spheres and capsules, and of meshes)
+                bake(scene, "null", BakeOptions(percentiles=True, penetration=True))
             except UnstableError:
                 pass  # raised after the frame was simulated and measured: every kernel has run
 
@@ -212,11 +213,4 @@ def warm_up_kernels(
         gather_xyz(np.zeros((1, 3), precision), np.zeros(1, np.int64), np.zeros((1, 3), np.float32))
     seconds = time.perf_counter() - start
     report("cache frames (HDF5 gzip chunks, extents, vertex order)", seconds)
-    # the command line's bakes measure how deep faces sink into the colliders (the library's
-    # bake above does not): spheres and capsules, and meshes
-    start = time.perf_counter()
-    warm_up_round_cone_depths()
-    warm_up_mesh_depths()
-    penetration = time.perf_counter() - start
-    report("face penetration measure (spheres and capsules, meshes)", penetration)
-    return total + seconds + penetration
+    return total + seconds
