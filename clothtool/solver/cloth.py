@@ -121,6 +121,7 @@ class ClothSolver:
         self.neighbours: list[ClothSolver] = []  # cloths whose particles this one collides with
         self.stages = build_stages(self)
         self._fused = FusedFrame()
+        self._callees = None  # the frame function's callee table (clothtool.solver.framecall)
 
     def set_neighbours(self, neighbours) -> None:
         """The other cloths of the scene (cloth-cloth collision); rebuilds the stage list, so
@@ -253,9 +254,9 @@ class ClothSolver:
         arguments = (plan.iterations, self.state.cur, self.state.prev, *values)
         if new:  # compiled (or loaded from the cache) apart from the frame's time
             with self.profiler.stage(JIT_STAGE):
-                compile_for(function, arguments)
+                self._callees = compile_for(function, arguments)
         with self.profiler.stage(FRAME_STAGE):
-            function(*arguments)
+            function(*arguments, self._callees)
         for stage in self.stages:
             stage.end_fused_frame()
         return True

@@ -7,21 +7,22 @@ frame's iterations, indexed by ``it``; the stage computed them in ``begin_frame`
 ``run`` indexes the same stacks, so both paths give the same bits. From the stage list this
 module writes the source of one function,
 
-    def frame(iterations, cur, prev, <each stage's arguments>):
+    def frame(iterations, cur, prev, <each stage's arguments>, callees):
         for it in range(iterations):
             <each stage's lines>
         return iterations
 
-which calls the stages' kernels (numba links the compiled kernels in; nothing else compiles)
-and returns early when the sleep stage puts the cloth to sleep. Only the stages the scene
-needs appear, so a scene's frame function compiles only its own kernels.
+which calls the stages' kernels through a table of their addresses (the last argument,
+``callees``; clothtool.solver.framecall: nothing of theirs compiles again) and returns early
+when the sleep stage puts the cloth to sleep. Only the stages the scene needs appear, so a
+scene's frame function compiles only its own kernels.
 
 Caching: the generated module is written to the kernel cache's key directory under a name
 that is the hash of its source (clothtool._kernel_cache: the key already covers every
 package source, so a changed kernel gives a new key; the file's own contents stamp its
-compiled entry). The frame function itself is compiled in each process, never loaded from
-the disk cache (``compile_for`` says why). Without a usable cache directory the module is
-compiled in memory.
+compiled entry), and the frame function is cached there like any kernel: its code names no
+other compiled function, so it loads in any process. Without a usable cache directory the
+module is compiled in memory.
 """
 
 from __future__ import annotations
@@ -30,11 +31,14 @@ import dataclasses
 import hashlib
 import importlib.util
 import os
+import pickle
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
+
+from clothtool.solver.framecall import TYPED_SLOTS, callee_token
 
 GENERATED_DIR = "generated"
 _COMPILED: dict[str, object] = {}  # source -> dispatcher, for this process
@@ -79,8 +83,9 @@ def copy_lines(source: str, target: str, columns: str = "{target}.shape[1]") -> 
     )
 
 
-def _unlinked_calls(line: str, aliases: list[str]) -> str:
-    """``alias(a, b)`` -> ``call_kernel(alias, (a, b,))`` for each kernel alias in ``line``."""
+def _unlinked_calls(line: str, aliases: list[str], slots: list[str]) -> str:
+    """``alias(a, b)`` -> ``call_kernel(callees, slot, alias, (a, b,))`` for each kernel alias
+    in ``line``, each call with a slot of its own (appended to ``slots``: the alias it calls)."""
     for alias in aliases:
         start = line.find(alias + "(")
         while start >= 0:
@@ -90,15 +95,19 @@ def _unlinked_calls(line: str, aliases: list[str]) -> str:
                 depth += {"(": 1, ")": -1}.get(line[end], 0)
                 if depth == 0:
                     break
-            line = f"{line[:start]}call_kernel({alias}, ({line[open_at + 1:end]},)){line[end + 1:]}"
+            line = f"{line[:start]}call_kernel(callees, {len(slots)}, {alias}, ({line[open_at + 1:end]},)){line[end + 1:]}"
+            slots.append(alias)
             start = line.find(alias + "(", start + len("call_kernel("))
     return line
 
 
 def frame_source(calls: list[FusedCall]) -> tuple[str, list]:
-    """(module source, argument values in the order of the frame function's parameters)."""
+    """(module source, argument values in the order of the frame function's parameters, all
+    but the last: the callee table, which compile_for makes). The module's ``CALLEES`` names
+    the kernel each row of the table is for."""
     imports, made = ["from clothtool._jit import kernel", "from clothtool.solver.framecall import call_kernel"], []
     parameters, values, body = [], [], []
+    slots: list[str] = []
     for index, call in enumerate(calls):
         names = {}
         for name, value in call.args.items():
@@ -113,10 +122,11 @@ def frame_source(calls: list[FusedCall]) -> tuple[str, list]:
             made += lines[1:]
         body.append(f"        # stage {index}")
         aliases = [names[name] for name in call.kernels]
-        body += [f"        {_unlinked_calls(line.format(**names), aliases)}" for line in call.lines]
-    signature = ", ".join(["iterations", "cur", "prev"] + parameters)
+        body += [f"        {_unlinked_calls(line.format(**names), aliases, slots)}" for line in call.lines]
+    signature = ", ".join(["iterations", "cur", "prev"] + parameters + ["callees"])
     source = "\n".join(
-        ['"""A frame function written by clothtool.solver.framefn."""', *sorted(set(imports)), *made, "", "",
+        ['"""A frame function written by clothtool.solver.framefn."""', *sorted(set(imports)), *made,
+         f"CALLEES = {tuple(slots)!r}", "", "",
          "@kernel", f"def frame({signature}):", "    for it in range(iterations):", *body, "    return iterations", ""]
     )
     return source, values
@@ -191,22 +201,127 @@ class FusedFrame:
         return self.function, values, new
 
 
-def compile_for(function, arguments: tuple) -> None:
-    """Compile ``function`` for the types of ``arguments`` without running it, in this
-    process, never from the disk cache. Its kernels are called unlinked
-    (clothtool.solver.framecall): a cached frame function calls its callees' symbols as they
-    were when it was saved, and a cache filled by two processes at once (parallel bakes,
-    pytest -n 2) could hold callees saved by the other process under other symbols: loading
-    it then segfaulted. Compiled here, it calls the symbols this process has (about 0.7 s for
-    the walk, once per process; the kernels themselves still come from the cache)."""
-    import numba
-    from numba.core.caching import NullCache
+# (frame function, argument types) -> its callee table, in this process
+_TABLES: dict[tuple, np.ndarray] = {}
 
-    types = tuple(numba.typeof(value) for value in arguments)
-    if types in function.overloads:
+
+def compile_for(function, arguments: tuple) -> np.ndarray:
+    """Compile ``function`` for the types of ``arguments`` (all but the callee table), or load
+    it from the disk cache, without running it; returns the callee table to call it with.
+
+    The table holds the address of each kernel the frame function calls
+    (clothtool.solver.framecall) for the argument types it calls it with. Those types are
+    learnt when the frame function is typed; a function loaded from the cache is not typed,
+    so the first process to compile it records them beside the module (``_record_path``:
+    the same for every process, as typing is), and a later process compiles or loads each
+    callee for its recorded types and takes its address. The frame function compiles only
+    inside this call: called with other types, it raises rather than compiling for a table
+    made for these."""
+    import numba
+
+    types = tuple(numba.typeof(value) for value in arguments) + (numba.typeof(np.empty((0, 2), np.uint64)),)
+    table = _TABLES.get((function, types))
+    if table is not None:
+        return table
+    namespace = function.py_func.__globals__
+    aliases = namespace["CALLEES"]
+    record_path = _record_path(function)
+    record = _read_record(record_path)
+    known = record.get(repr(types))
+    if not isinstance(known, list) or len(known) != len(aliases):
+        known = None  # not recorded yet (or a damaged record: typed again and rewritten)
+    TYPED_SLOTS.clear()
+    function.disable_compile(False)
+    try:
+        if known is None:
+            # typed here even when the disk cache holds the function: the types are not recorded
+            cache, function._cache = function._cache, _SaveOnly(function._cache)
+            try:
+                function.compile(types)
+            finally:
+                function._cache = cache
+        else:
+            function.compile(types)
+    finally:
+        function.disable_compile(True)
+    if known is None or TYPED_SLOTS:  # typed in this process
+        callees = [TYPED_SLOTS.get(slot) for slot in range(len(aliases))]
+        typed = [None if callee is None else callee[1] for callee in callees]
+        if typed != known:
+            record[repr(types)] = typed
+            _write_record(record_path, record)
+    else:  # loaded from the disk cache
+        callees = [
+            None if argument_types is None else (numba.typeof(namespace[alias]).dispatcher, argument_types)
+            for alias, argument_types in zip(aliases, known)
+        ]
+    table = _TABLES[(function, types)] = _callee_table(callees)
+    return table
+
+
+def _callee_table(callees: list) -> np.ndarray:
+    """uint64 (slots, 2): each callee's address and token (zeros for a call never typed: a
+    branch numba removed)."""
+    table = np.zeros((len(callees), 2), np.uint64)
+    for row, callee in enumerate(callees):
+        if callee is None:
+            continue
+        dispatcher, argument_types = callee
+        dispatcher.compile(argument_types)
+        compiled = dispatcher.overloads[argument_types]
+        table[row] = compiled.library.get_pointer_to_function(compiled.fndesc.llvm_func_name), callee_token(
+            dispatcher, argument_types
+        )
+    return table
+
+
+class _SaveOnly:
+    """A dispatcher's disk cache that saves what compiles but never loads."""
+
+    def __init__(self, cache) -> None:
+        self._cache = cache
+
+    def load_overload(self, *args):
+        return None
+
+    def __getattr__(self, name: str):
+        return getattr(self._cache, name)
+
+
+def _record_path(function) -> Path | None:
+    """Where the argument types of ``function``'s callees are recorded: beside its module in
+    the cache (None for a module compiled in memory)."""
+    module = sys.modules.get(function.py_func.__module__)
+    path = getattr(module, "__file__", None)
+    return None if path is None else Path(path).with_suffix(".callees")
+
+
+def _read_record(path: Path | None) -> dict:
+    """frame argument types (repr) -> each slot's callee argument types (None: never typed)."""
+    if path is None:
+        return {}
+    try:
+        with open(path, "rb") as stream:
+            record = pickle.load(stream)
+    except (OSError, EOFError, pickle.UnpicklingError, AttributeError, ImportError, TypeError):
+        return {}  # none yet, or unreadable: typed again and rewritten
+    return record if isinstance(record, dict) else {}
+
+
+def _write_record(path: Path | None, record: dict) -> None:
+    """Replace the record atomically (two processes write the same types for the same key)."""
+    if path is None:
         return
-    function._cache = NullCache()
-    function.compile(types)
+    try:
+        handle, temporary = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    except OSError:
+        return  # a read-only cache: the next process types the function again
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            pickle.dump(record, stream)
+        os.replace(temporary, path)
+    except OSError:
+        Path(temporary).unlink(missing_ok=True)
 
 
 def stacked(values, dtype) -> np.ndarray:

@@ -3,10 +3,8 @@
 Each member's compiled stats call (frame_summary) gets its arguments ready-made (views of
 the merged state and its own arrays; only 1/h changes), and its results become stats through
 its own ClothMeter (``strain_from_spans``, ``summary_stats``): the same kernel on the same
-arrays, so every member's stats are the numbers its own meter gives. (One compiled call for
-the whole group would save ~5 us a cloth more but costs ~0.9 s of compilation in every
-process: it must call frame_summary unlinked, so it cannot come from the disk cache; see
-clothtool.solver.framefn.compile_for.) Percentiles and face penetration are measured by each
+arrays, so every member's stats are the numbers its own meter gives. (One compiled call for the whole group
+would save ~5 us a cloth more, for ~0.9 s more compilation on a cold start.) Percentiles and face penetration are measured by each
 member's own meter.
 """
 

@@ -90,6 +90,53 @@ def test_a_clone_at_another_path_loads_every_kernel_and_an_edit_recompiles(tmp_p
     assert Path(edited["path"]).parents[2] != Path(compiled["path"]).parents[2]
 
 
+BAKE_COUNTING_COMPILES = """
+import json, runpy, sys
+from numba.core import event
+
+compiles = []
+
+
+class Count(event.Listener):
+    def on_start(self, data):
+        compiles.append(data.data["dispatcher"].py_func.__qualname__)
+
+    def on_end(self, data):
+        pass
+
+
+event.register("numba:compile", Count())
+sys.argv = ["clothtool", "bake", *sys.argv[1:]]
+try:
+    runpy.run_module("clothtool", run_name="__main__")
+except SystemExit as exit:
+    assert not exit.code, exit.code
+print(json.dumps(compiles))
+"""
+
+
+@pytest.mark.slow
+def test_a_clone_at_another_path_bakes_the_walk_without_compiling(tmp_path):
+    """The README's walk bake (its report measures percentiles and face penetration) in a
+    second clone with the first one's cache: no kernel compiles, the frame function included
+    (it calls its kernels through a table of addresses, so it is cached like they are)."""
+    cache = tmp_path / "cache"
+    first, second = _clone(tmp_path / "ci" / "one"), _clone(tmp_path / "elsewhere" / "two")
+    compiles = []
+    for clone in (first, second):
+        out = tmp_path / clone.name
+        out.mkdir()
+        result = subprocess.run(
+            [sys.executable, "-c", BAKE_COUNTING_COMPILES, str(REPO / "examples" / "skirt" / "walk.toml"),
+             "--frames", "1:4", "-o", str(out / "walk.h5"), "--report", str(out / "walk.json")],
+            env=_env(clone, CLOTHTOOL_CACHE_DIR=str(cache)), capture_output=True, text=True, cwd=tmp_path, timeout=600,
+        )
+        assert result.returncode == 0, result.stderr
+        compiles.append(json.loads(result.stdout.splitlines()[-1]))
+    assert "frame" in compiles[0] and len(compiles[0]) > 10
+    assert compiles[1] == []
+
+
 @pytest.mark.slow
 def test_a_read_only_install_with_no_writable_home_bakes_with_one_warning(tmp_path):
     blocker = tmp_path / "not_a_directory"
