@@ -34,6 +34,7 @@ import os
 import pickle
 import sys
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -206,6 +207,8 @@ class FusedFrame:
 
 # (frame function, argument types) -> its callee table, in this process
 _TABLES: dict[tuple, np.ndarray] = {}
+# compile_for reads what typing left in TYPED_SLOTS: one compile at a time (bakes on threads)
+_COMPILING = threading.Lock()
 
 
 def compile_for(function, arguments: tuple) -> np.ndarray:
@@ -223,9 +226,17 @@ def compile_for(function, arguments: tuple) -> np.ndarray:
     import numba
 
     types = tuple(numba.typeof(value) for value in arguments) + (numba.typeof(np.empty((0, 2), np.uint64)),)
-    table = _TABLES.get((function, types))
-    if table is not None:
-        return table
+    with _COMPILING:
+        table = _TABLES.get((function, types))
+        if table is None:
+            table = _TABLES[(function, types)] = _compile_table(function, types)
+    return table
+
+
+def _compile_table(function, types: tuple) -> np.ndarray:
+    """compile_for's work: compile or load ``function`` for ``types``, then its callee table."""
+    import numba
+
     namespace = function.py_func.__globals__
     aliases = namespace["CALLEES"]
     record_path = _record_path(function)
@@ -258,8 +269,7 @@ def compile_for(function, arguments: tuple) -> np.ndarray:
             None if argument_types is None else (numba.typeof(namespace[alias]).dispatcher, argument_types)
             for alias, argument_types in zip(aliases, known)
         ]
-    table = _TABLES[(function, types)] = _callee_table(callees)
-    return table
+    return _callee_table(callees)
 
 
 def _callee_table(callees: list) -> np.ndarray:
