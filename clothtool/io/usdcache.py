@@ -38,6 +38,7 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
+from clothtool.io.heap import keep_freed_memory
 from clothtool.io.vt_points import vec3f_array
 
 __all__ = ["UsdCacheWriter", "UsdCacheReader", "read_usd_cache", "format_cache_summary"]
@@ -151,6 +152,7 @@ class UsdLayerWriter(StreamedCacheWriter):
         # Text layers rewrite the whole file on every save: save them once, at the end.
         self._save_every = int(options.save_every) if self._crate else 0
         self._layer = None
+        keep_freed_memory()  # each save frees the samples of ``save_every`` frames
 
     def _write_whole_frame(self, frame: int, write: Callable[[float], None]) -> None:
         """``write(time)`` puts the frame's samples into the layer (in one change block); then
