@@ -219,7 +219,7 @@ class H5CacheWriter(StreamedCacheWriter):
         array itself, written in this frame's ``_write_rows`` (before the caller can change
         it): as it is for "none", through h5py's filter for lzf.
 
-        The encoding runs on the caller's thread: it costs ~0.03 ms per 128^2 chunk, less
+        The encoding runs on the caller's thread: it costs ~0.025 ms per 128^2 chunk, less
         than handing it to a worker thread did in wake-ups and GIL handoffs (and the CPU time
         is the same on any thread)."""
         return array if encoder is None else encoder.encode(array)
