@@ -24,7 +24,7 @@ import numpy as np
 from clothtool.bake import BakeOptions, bake
 from clothtool.errors import UnstableError
 from clothtool.io.extent_kernel import frame_extent
-from clothtool.io.h5chunks import shuffle
+from clothtool.io.h5chunks import GzipChunkEncoder
 from clothtool.loading import load_scene
 from clothtool.sim.integrators import CAPABILITIES, integrator_spec
 from clothtool.solver.kernels.rows import gather_xyz
@@ -207,7 +207,7 @@ def warm_up_kernels(
     # the null writer compiles nothing of the caches': the gzip chunks' shuffle kernel, the
     # extents and the gather of frame rows into vertex order (from either state precision) too
     start = time.perf_counter()
-    shuffle(np.zeros((1, 3), np.float32))
+    GzipChunkEncoder(3).encode(np.zeros((1, 3), np.float32))
     frame_extent(np.zeros((1, 3), np.float32))
     for precision in (np.float32, np.float64):
         gather_xyz(np.zeros((1, 3), precision), np.zeros(1, np.int64), np.zeros((1, 3), np.float32))

@@ -13,12 +13,17 @@ velocities) at 20x the cost of the exponent plane, so they go into deflate's "st
 (RFC 1951 3.2.4: a length and the bytes as they are). The chunk is one zlib stream (RFC 1950):
 header, stored blocks, the deflated exponent plane (its final block), the Adler-32 of the whole
 shuffled chunk. The same input always gives the same bytes. A 128^2 cloth's chunk encodes in
-~0.05 ms (deflating all four planes took ~0.45 ms); a cloth with one coordinate constant
+~0.025 ms (deflating all four planes took ~0.45 ms): the Adler-32 is ~11 us of it, the
+exponent plane's deflate ~7 us and the shuffle ~5 us. A cloth with one coordinate constant
 (a flat sheet swinging in its plane) gives up more, its constant zeros being compressible
 (the benchmark sheet: 77% of the raw size instead of 60%).
 
-    data = encode_chunk(points, "gzip")                  # numpy + isal only, no h5py
-    FrameChunks(dataset).write(k, data)
+The writer encodes each per-frame dataset's chunks with a ``GzipChunkEncoder``, which
+builds the stream in one buffer kept from frame to frame; ``encode_chunk`` gives the same
+bytes for any array (the reference the encoder is tested against).
+
+    encoder = GzipChunkEncoder(points.size)              # numpy + isal only, no h5py
+    FrameChunks(dataset).write(k, encoder.encode(points))
 """
 
 from __future__ import annotations
@@ -87,6 +92,87 @@ def zlib_stream(planes: np.ndarray) -> bytes:
 def encode_chunk(array: np.ndarray, compression: str) -> bytes:
     """The bytes HDF5 stores for ``array`` as one chunk under ``compression``'s filters."""
     return deflate(snapshot(array, compression), compression)
+
+
+class GzipChunkEncoder:
+    """``encode_chunk(array, "gzip")`` for the float32 chunks of one per-frame dataset, into
+    one buffer kept from frame to frame: the stream's header and its stored blocks' headers
+    depend only on the chunk's size, so they are written once, and the shuffle puts each
+    frame's mantissa planes straight into the stored blocks (no planes array, no joining
+    of the parts: ~0.02 ms less a 128^2 chunk). ``encode`` returns a view of that buffer,
+    valid until the next ``encode``: the caller writes it before encoding this dataset's
+    next chunk. Byte for byte what ``encode_chunk`` gives (tested)."""
+
+    def __init__(self, elements: int):
+        """``elements``: the 4-byte values in a chunk (3 per point)."""
+        self.elements = elements
+        split = 3 * elements  # the stored planes' bytes
+        payloads, headers, at = [], [], len(_ZLIB_HEADER)
+        for start in range(0, split, _STORED_BLOCK):
+            end = min(start + _STORED_BLOCK, split)
+            headers.append((at, struct.pack("<BHH", 0, end - start, (end - start) ^ 0xFFFF)))
+            payloads.append((at + 5, at + 5 + end - start, start))
+            at += 5 + end - start
+
+        def stream_offset(position: int) -> int:  # of byte ``position`` of the planes' concatenation
+            block = position // _STORED_BLOCK
+            return payloads[block][0] + position - payloads[block][2]
+
+        # Runs of words whose three stored bytes each land in one stored block.
+        block_starts = [start for _, _, start in payloads]
+        cuts = sorted({0, elements} | {b - k * elements for b in block_starts for k in range(3) if 0 < b - k * elements < elements})
+        self._runs = np.array(
+            [(j0, j1, *(stream_offset(k * elements + j0) for k in range(3))) for j0, j1 in zip(cuts, cuts[1:])], np.int64
+        ).reshape(-1, 5)
+        payloads = [(start, end) for start, end, _ in payloads]
+        self._deflated_at = at
+        self._buffer = np.empty(at + self.deflated_room(elements) + 4, np.uint8)  # + Adler-32
+        self._buffer[: len(_ZLIB_HEADER)] = np.frombuffer(_ZLIB_HEADER, np.uint8)
+        for where, header in headers:
+            self._buffer[where : where + 5] = np.frombuffer(header, np.uint8)
+        self._view = memoryview(self._buffer)
+        self._payload_ranges = payloads
+        self._payloads = [self._view[start:end] for start, end in payloads]
+        self._exponents = np.empty(elements, np.uint8)  # plane 3, deflate's input
+
+    @staticmethod
+    def deflated_room(elements: int) -> int:
+        """Room kept for the deflated plane of ``elements`` bytes: ISA-L's level 1 output of
+        random bytes is ~0.07% larger than its input; a plane that needs more grows the
+        buffer."""
+        return elements + elements // 64 + 256
+
+    def encode(self, array: np.ndarray) -> memoryview:
+        """The stored chunk of ``array`` (``elements`` float32 values, C-contiguous: what
+        ``as_points`` gives), as a view of the buffer."""
+        if array.dtype != np.float32 or array.size != self.elements or not array.flags.c_contiguous:
+            raise ValueError(f"a chunk is {self.elements} contiguous float32 values, got {array.size} of {array.dtype}")
+        if sys.byteorder != "little":  # the kernel reads words as the machine orders them
+            return memoryview(encode_chunk(array, "gzip"))
+        from clothtool.io.shuffle_kernel import shuffle_into_stream
+
+        exponents, view = self._exponents, self._view
+        shuffle_into_stream(array.reshape(-1).view(np.uint32), self._runs, self._buffer, exponents)
+        deflater = isal_zlib.compressobj(DEFLATE_LEVEL, isal_zlib.DEFLATED, -isal_zlib.MAX_WBITS)  # as zlib_stream
+        deflated = deflater.compress(exponents) + deflater.flush()
+        check = 1  # Adler-32 of the shuffled bytes in stream order: the stored runs, then plane 3
+        for payload in self._payloads:
+            check = isal_zlib.adler32(payload, check)
+        check = isal_zlib.adler32(exponents, check)
+        start = self._deflated_at
+        end = start + len(deflated)
+        if end + 4 > len(view):  # more than deflated_room
+            self._grow(end + 4)
+            view = self._view
+        view[start:end] = deflated
+        view[end : end + 4] = check.to_bytes(4, "big")
+        return view[: end + 4]
+
+    def _grow(self, size: int) -> None:
+        buffer = np.empty(size, np.uint8)
+        buffer[: self._deflated_at] = self._buffer[: self._deflated_at]
+        self._buffer, self._view = buffer, memoryview(buffer)
+        self._payloads = [self._view[start:end] for start, end in self._payload_ranges]
 
 
 class FrameChunks:

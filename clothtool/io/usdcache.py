@@ -10,6 +10,7 @@ frame count). The reader has the API of ``clothtool.io.h5cache.CacheReader``.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -19,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import clothtool.usd_env  # noqa: F401  (before pxr: how crate files are read)
-from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt
+from pxr import Gf, Kind, Sdf, Tf, Usd, UsdGeom, Vt, Work
 
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
@@ -38,6 +39,8 @@ from clothtool.io.cache_common import (
     scalar_params_json,
     writes_colliders,
 )
+from clothtool.io.heap import keep_freed_memory
+from clothtool.io.vt_points import vec3f_array
 
 __all__ = ["UsdCacheWriter", "UsdCacheReader", "read_usd_cache", "format_cache_summary"]
 
@@ -150,6 +153,7 @@ class UsdLayerWriter(StreamedCacheWriter):
         # Text layers rewrite the whole file on every save: save them once, at the end.
         self._save_every = int(options.save_every) if self._crate else 0
         self._layer = None
+        keep_freed_memory()  # each save frees the samples of ``save_every`` frames
 
     def _write_whole_frame(self, frame: int, write: Callable[[float], None]) -> None:
         """``write(time)`` puts the frame's samples into the layer (in one change block); then
@@ -188,7 +192,8 @@ class UsdLayerWriter(StreamedCacheWriter):
         writer gives the file up.
         """
         try:
-            saved = self._layer.Save()
+            with _serial_work():
+                saved = self._layer.Save()
         except Tf.ErrorException as exc:
             raise self._fail(_FailedSave(_first_line(exc)), doing) from None
         if not saved:
@@ -262,11 +267,11 @@ class UsdCacheWriter(UsdLayerWriter):
         layer = self._layer
         for i, paths in enumerate(self._cloth_paths):
             points = as_points(frame.points[i])
-            # FromNumpy: one memcpy (1 ms per 100k points); building from a list costs 100x more.
-            _sample(layer, paths["points"], time, Vt.Vec3fArray.FromNumpy(points), first)
-            _sample(layer, paths["extent"], time, Vt.Vec3fArray.FromNumpy(frame_extent(points)), first)
+            # vec3f_array: a memcpy into a new array (FromNumpy converts float by float, 10x slower)
+            _sample(layer, paths["points"], time, vec3f_array(points), first)
+            _sample(layer, paths["extent"], time, vec3f_array(frame_extent(points)), first)
             if "velocities" in paths:
-                _sample(layer, paths["velocities"], time, Vt.Vec3fArray.FromNumpy(as_points(frame.velocities[i])), first)
+                _sample(layer, paths["velocities"], time, vec3f_array(as_points(frame.velocities[i])), first)
             for field, path in paths["stats"].items():
                 layer.SetTimeSample(path, time, float(frame.stats[i][field]))
 
@@ -278,8 +283,21 @@ class UsdCacheWriter(UsdLayerWriter):
             matrix = Gf.Matrix4d(np.asarray(frame.collider_xforms[i], np.float64).tolist())
             _sample(layer, paths["xform"], time, matrix, first)
             if i in moved:  # deforming mesh colliders only; a static one keeps its rest points
-                layer.SetTimeSample(paths["points"], time, Vt.Vec3fArray.FromNumpy(moved[i]))
-                layer.SetTimeSample(paths["extent"], time, Vt.Vec3fArray.FromNumpy(frame_extent(moved[i])))
+                layer.SetTimeSample(paths["points"], time, vec3f_array(moved[i]))
+                layer.SetTimeSample(paths["extent"], time, vec3f_array(frame_extent(moved[i])))
+
+
+@contextlib.contextmanager
+def _serial_work():
+    """pxr's work limited to the calling thread for the block. A crate save hands some of its
+    packing to worker threads, which then spin waiting for more: ~0.05 ms of CPU time a
+    frame at 128^2 for nothing, the save itself taking as long on one thread."""
+    limit = Work.GetConcurrencyLimit()
+    Work.SetConcurrencyLimit(1)
+    try:
+        yield
+    finally:
+        Work.SetConcurrencyLimit(limit)
 
 
 class _FailedSave(Exception):

@@ -15,13 +15,14 @@ import os
 from pathlib import Path
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom, Vt
+from pxr import Sdf, Tf, Usd, UsdGeom
 
 from clothtool import __version__
 from clothtool.errors import ClothtoolError, FormatError
 from clothtool.io.cache import CacheHeader, CacheOptions, FrameData
 from clothtool.io.cache_common import as_points, points_extent
 from clothtool.io.usdcache import UsdLayerWriter, _first_line, _layer_args  # first: sets pxr up for crate files
+from clothtool.io.vt_points import vec3f_array
 
 
 class ShotLayerWriter(UsdLayerWriter):
@@ -85,11 +86,11 @@ class ShotLayerWriter(UsdLayerWriter):
             world_to_local = np.linalg.inv(np.array(target["xformable"].ComputeLocalToWorldTransform(Usd.TimeCode(time)), np.float64))
             world = np.asarray(frame.points[i], np.float64)[target["map"]]
             local = as_points(world @ world_to_local[:3, :3] + world_to_local[3, :3])
-            self._layer.SetTimeSample(target["paths"]["points"], time, Vt.Vec3fArray.FromNumpy(local))
-            self._layer.SetTimeSample(target["paths"]["extent"], time, Vt.Vec3fArray.FromNumpy(points_extent(local)))
+            self._layer.SetTimeSample(target["paths"]["points"], time, vec3f_array(local))
+            self._layer.SetTimeSample(target["paths"]["extent"], time, vec3f_array(points_extent(local)))
             if "velocities" in target["paths"] and frame.velocities is not None:
                 velocities = np.asarray(frame.velocities[i], np.float64)[target["map"]] @ world_to_local[:3, :3]
-                self._layer.SetTimeSample(target["paths"]["velocities"], time, Vt.Vec3fArray.FromNumpy(as_points(velocities)))
+                self._layer.SetTimeSample(target["paths"]["velocities"], time, vec3f_array(as_points(velocities)))
 
     def _drop_handles(self) -> None:
         self._stage = None

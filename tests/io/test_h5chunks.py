@@ -19,7 +19,7 @@ from clothtool.errors import ClothtoolError
 from clothtool.io import h5cache
 from clothtool.io.cache import CacheOptions
 from clothtool.io.h5cache import H5CacheWriter, read_h5_cache
-from clothtool.io.h5chunks import SeriesChunks, encode_chunk, shuffle
+from clothtool.io.h5chunks import GzipChunkEncoder, SeriesChunks, encode_chunk, shuffle
 from clothtool.io.hdf5_files import create_hdf5
 
 
@@ -65,6 +65,39 @@ def test_mantissa_planes_are_stored_and_the_exponent_plane_deflated(points):
     assert types[:-1] == [0] * -(-stored_bytes // 65535) and types[-1] in (1, 2)
     # The stored part is the three low planes as they are; the exponent plane shrinks.
     assert len(stream) < stored_bytes + array.size + 5 * len(types) + 6 + 16
+
+
+@pytest.mark.parametrize("points", [1, 5, 16384, 21845, 21846, 43690, 100000])
+def test_the_encoder_gives_encode_chunks_bytes_frame_after_frame(points):
+    """Stored-block headers written once, the planes shuffled into the blocks in runs cut
+    where a block ends inside a plane (21845 and 43690 points end blocks on a plane's
+    end): the same bytes as encode_chunk for every frame through the one buffer."""
+    rng = np.random.default_rng(points)
+    encoder = GzipChunkEncoder(3 * points)
+    for _ in range(3):
+        array = rng.normal(size=(points, 3)).astype(np.float32)
+        assert bytes(encoder.encode(array)) == encode_chunk(array, "gzip")
+
+
+@pytest.mark.parametrize("room", [GzipChunkEncoder.deflated_room, lambda elements: 0])
+def test_the_encoder_keeps_an_incompressible_exponent_plane_whole(monkeypatch, room):
+    """Random bit patterns give deflate nothing to shrink: the deflated plane fits the room
+    kept for it, and where it does not (no room kept) the buffer grows."""
+    monkeypatch.setattr(GzipChunkEncoder, "deflated_room", staticmethod(room))
+    for points in (30000, 100000):
+        array = np.random.default_rng(points).integers(0, 2**32, size=(points, 3), dtype=np.uint32).view(np.float32)
+        encoder = GzipChunkEncoder(array.size)
+        for _ in range(2):
+            stream = bytes(encoder.encode(array))
+            assert stream == encode_chunk(array, "gzip")
+            assert zlib.decompress(stream) == array.view(np.uint8).reshape(-1, 4).T.tobytes()
+
+
+def test_the_encoder_refuses_a_chunk_of_another_size_or_type():
+    encoder = GzipChunkEncoder(6)
+    for bad in (np.zeros((3, 3), np.float32), np.zeros((2, 3), np.float64), np.zeros((3, 2), np.float32).T):
+        with pytest.raises(ValueError, match="a chunk is 6 contiguous float32 values"):
+            encoder.encode(bad)
 
 
 def h5py_filtered_chunk(tmp_path, array: np.ndarray, compression: str) -> bytes:
@@ -139,15 +172,15 @@ def test_arrays_changed_after_write_frame_do_not_reach_the_file(out_dir):
 
 def test_an_encoding_error_fails_the_frame_at_the_next_write(out_dir, monkeypatch):
     header = make_header()
-    deflate, calls = h5cache.deflate, []
+    encode, calls = GzipChunkEncoder.encode, []
 
-    def deflate_failing_for_frame_5(data, compression):
+    def encode_failing_for_frame_5(encoder, array):
         calls.append(len(calls))
         if len(calls) > 2 * 5:  # frames 3 and 4 (two cloths' P and v, the body's points), then frame 5 fails
             raise MemoryError("no room for the compressed chunk")
-        return deflate(data, compression)
+        return encode(encoder, array)
 
-    monkeypatch.setattr(h5cache, "deflate", deflate_failing_for_frame_5)
+    monkeypatch.setattr(GzipChunkEncoder, "encode", encode_failing_for_frame_5)
     writer = H5CacheWriter(out_dir / "shot.h5", CacheOptions())
     with pytest.raises(ClothtoolError, match=r"shot\.h5: compressing frame 5 failed \(MemoryError: no room for the compressed chunk\)"):
         with writer:
@@ -162,15 +195,15 @@ def test_an_encoding_error_fails_the_frame_at_the_next_write(out_dir, monkeypatc
 
 def test_an_encoding_error_on_the_last_frame_fails_the_commit(out_dir, monkeypatch):
     header = make_header(start=1, end=2)
-    deflate = h5cache.deflate
+    encode = GzipChunkEncoder.encode
     writer = H5CacheWriter(out_dir / "shot.h5", CacheOptions())
     with pytest.raises(ClothtoolError, match=r"compressing frame 2 failed"):
         with writer:
             writer.write_header(header)
             writer.write_frame(make_frame(header, 1))
-            monkeypatch.setattr(h5cache, "deflate", lambda data, compression: 1 / 0)
+            monkeypatch.setattr(GzipChunkEncoder, "encode", lambda encoder, array: 1 / 0)
             writer.write_frame(make_frame(header, 2))
-            monkeypatch.setattr(h5cache, "deflate", deflate)
+            monkeypatch.setattr(GzipChunkEncoder, "encode", encode)
             writer.commit()
     assert writer.kept == (out_dir / "shot.partial.h5", 1) and not (out_dir / "shot.h5").exists()
 

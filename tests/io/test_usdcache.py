@@ -223,3 +223,20 @@ def test_memory_grows_without_periodic_saves(out_dir):
     raw_mb = 300 * 20_000 * 12 / 2**20
     assert memory_growth_mb(out_dir / "kept.usdc", 20_000, 300, CacheOptions(save_every=0)) > raw_mb / 2
     assert memory_growth_mb(out_dir / "saved.usdc", 20_000, 300, CacheOptions(save_every=10)) < raw_mb / 4
+
+
+def test_saves_run_pxr_work_on_the_calling_thread_and_restore_its_limit():
+    """The crate save's worker threads only spun (CPU time for nothing): the limit is 1
+    for the block and the caller's own afterwards, after an error too."""
+    from pxr import Work
+
+    from clothtool.io.usdcache import _serial_work
+
+    before = Work.GetConcurrencyLimit()
+    with _serial_work():
+        assert Work.GetConcurrencyLimit() == 1
+    assert Work.GetConcurrencyLimit() == before
+    with pytest.raises(RuntimeError, match="save failed"):
+        with _serial_work():
+            raise RuntimeError("save failed")
+    assert Work.GetConcurrencyLimit() == before

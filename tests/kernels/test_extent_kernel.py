@@ -39,3 +39,24 @@ def test_a_nan_makes_its_column_nan_as_numpy_does(row):
 def test_infinities_are_kept():
     points = np.array([[np.inf, 0.0, -np.inf], [1.0, 2.0, 3.0]], np.float32)
     np.testing.assert_array_equal(frame_extent(points), [[1.0, 0.0, -np.inf], [np.inf, 2.0, 3.0]])
+
+
+@pytest.mark.parametrize("bits", [0x7FC00000, 0xFFC00000, 0x7F800001, 0xFFFFFFFF])
+def test_a_nan_of_either_sign_and_any_payload_makes_its_column_nan(bits):
+    """The integer keys put every NaN outside -inf..+inf, whatever its sign bit and payload."""
+    points = np.array([[1.0, np.inf, -2.0], [3.0, -np.inf, 4.0]], np.float32)
+    points.view(np.uint32)[1, 2] = bits
+    box = frame_extent(points)
+    assert np.isnan(box[:, 2]).all()
+    np.testing.assert_array_equal(box[:, :2], [[1.0, -np.inf], [3.0, np.inf]])
+
+
+def test_signed_zeros_and_tiny_values_order_as_floats():
+    points = np.array([[0.0, -1e-45, 2.0], [-0.0, 1e-45, -2.0], [0.0, 0.0, -3.0]], np.float32)
+    box = frame_extent(points)
+    np.testing.assert_array_equal(box, np.array([[0.0, -1e-45, -3.0], [0.0, 1e-45, 2.0]], np.float32))
+    assert np.signbit(box[0, 0]) and not np.signbit(box[1, 0])  # -0.0 is the min, +0.0 the max
+
+
+def test_an_empty_array_gives_an_inverted_infinite_box():
+    np.testing.assert_array_equal(frame_extent(np.zeros((0, 3), np.float32)), [[np.inf] * 3, [-np.inf] * 3])

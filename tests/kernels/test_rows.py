@@ -20,13 +20,17 @@ def test_copy_xyz_matches_reference(n, dtype):
     np.testing.assert_array_equal(out, ref.copy_xyz(cur, out))
 
 
-@pytest.mark.parametrize("n", [0, 1, 37])
-def test_xyz_velocity_matches_reference(n):
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("n", [0, 1, 37, 64, 65, 200])
+def test_xyz_velocity_matches_reference(n, dtype):
+    """Within one block of 64 rows and across blocks (a last one full or partial), in
+    either state precision (h in the state's)."""
     cur, prev = particles(np.random.default_rng(100 + n), n)
-    h = np.float32(1.0 / 300.0)
+    cur, prev = cur.astype(dtype), prev.astype(dtype)
+    h = dtype(1.0 / 300.0)
     out = np.full((n, 3), np.nan, np.float32)
     xyz_velocity(cur, prev, h, out)
-    # the same float32 operations in the same order: equal bit for bit
+    # the same operations in h's precision, one rounding to float32: equal bit for bit
     np.testing.assert_array_equal(out, ref.xyz_velocity(cur, prev, h, out))
     assert np.abs(out).max(initial=1.0) > 0.1  # speeds of ~0.02 / (1/300)
 
