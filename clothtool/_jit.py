@@ -33,7 +33,12 @@ from clothtool._kernel_cache import attach_cache  # noqa: E402
 # ``no_cfunc_wrapper``: nothing takes a kernel's C function pointer (numba.cfunc, first-class
 # function values); kernels call each other natively, Python calls them through their CPython
 # wrapper. Without it every kernel compiled a C wrapper too (unboxing each argument again).
-KERNEL_OPTIONS = dict(nogil=True, fastmath={"contract"}, error_model="numpy", boundscheck=False, no_cfunc_wrapper=True)
+# ``_nrt=True`` (numba's reference counting, its default) is said explicitly: a kernel that
+# compiles while another function is being compiled (a frame function types the kernels it
+# calls) otherwise inherits that function's setting, and frame functions compile without.
+KERNEL_OPTIONS = dict(
+    nogil=True, fastmath={"contract"}, error_model="numpy", boundscheck=False, no_cfunc_wrapper=True, _nrt=True
+)
 
 
 def kernel(func=None, **overrides):

@@ -124,15 +124,14 @@ class GzipChunkEncoder:
         self._runs = np.array(
             [(j0, j1, *(stream_offset(k * elements + j0) for k in range(3))) for j0, j1 in zip(cuts, cuts[1:])], np.int64
         ).reshape(-1, 5)
-        payloads = [(start, end) for start, end, _ in payloads]
         self._deflated_at = at
         self._buffer = np.empty(at + self.deflated_room(elements) + 4, np.uint8)  # + Adler-32
         self._buffer[: len(_ZLIB_HEADER)] = np.frombuffer(_ZLIB_HEADER, np.uint8)
         for where, header in headers:
             self._buffer[where : where + 5] = np.frombuffer(header, np.uint8)
-        self._view = memoryview(self._buffer)
-        self._payload_ranges = payloads
-        self._payloads = [self._view[start:end] for start, end in payloads]
+        self._view = self._buffer.data
+        self._payload_ranges = [(start, end) for start, end, _ in payloads]
+        self._payloads = [self._view[start:end] for start, end in self._payload_ranges]
         self._exponents = np.empty(elements, np.uint8)  # plane 3, deflate's input
 
     @staticmethod
@@ -171,7 +170,7 @@ class GzipChunkEncoder:
     def _grow(self, size: int) -> None:
         buffer = np.empty(size, np.uint8)
         buffer[: self._deflated_at] = self._buffer[: self._deflated_at]
-        self._buffer, self._view = buffer, memoryview(buffer)
+        self._buffer, self._view = buffer, buffer.data
         self._payloads = [self._view[start:end] for start, end in self._payload_ranges]
 
 

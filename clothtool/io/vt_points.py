@@ -18,6 +18,8 @@ import functools
 import numpy as np
 
 import clothtool.usd_env  # noqa: F401  (before pxr)
+
+# isort: split
 from pxr import Vt
 
 

@@ -16,7 +16,6 @@ import pytest
 from test_cache_roundtrip import assert_roundtrip, make_frame, make_header, write_cache
 
 from clothtool.errors import ClothtoolError
-from clothtool.io import h5cache
 from clothtool.io.cache import CacheOptions
 from clothtool.io.h5cache import H5CacheWriter, read_h5_cache
 from clothtool.io.h5chunks import GzipChunkEncoder, SeriesChunks, encode_chunk, shuffle

@@ -5,9 +5,11 @@ frame function from the disk cache."""
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 
+from clothtool._jit import KERNEL_OPTIONS
 from clothtool.solver import framefn
 from clothtool.solver.framefn import FusedCall, compile_for, compile_frame, frame_source
 from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
@@ -79,3 +81,30 @@ def test_a_process_that_loads_the_function_finds_the_callee_types_recorded(tmp_p
     monkeypatch.setattr(framefn, "_TABLES", {})
     monkeypatch.setattr(framefn, "TYPED_SLOTS", {})
     assert np.array_equal(compile_for(function, arguments), table)
+
+
+def _sum_rows(rows, out):
+    """out[i] = the sum of row i's xyz, through an array it allocates."""
+    scratch = np.empty(rows.shape[0])
+    for i in range(rows.shape[0]):
+        scratch[i] = rows[i, 0] + rows[i, 1] + rows[i, 2]
+    for i in range(rows.shape[0]):
+        out[i] = scratch[i]
+
+
+# no disk cache: compiled in this process, the first time a frame function's typing asks for it
+sum_rows = numba.njit(**KERNEL_OPTIONS)(_sum_rows)
+
+
+def test_a_kernel_first_compiled_for_a_frame_function_keeps_reference_counting():
+    """Frame functions compile without reference counting; a kernel compiled while one is
+    typed must not inherit that (numba's default): this one allocates, which needs it."""
+    source, _ = frame_source([FusedCall(("{sum_rows}(cur, {out})",), {"out": None}, {"sum_rows": sum_rows})])
+    function = compile_frame(source)
+    cur = np.arange(12, dtype=np.float64).reshape(3, 4)
+    out = np.zeros(3)
+    arguments = (1, cur, cur, out)
+    assert not sum_rows.overloads
+    table = compile_for(function, arguments)
+    function(*arguments, table)
+    assert out.tolist() == [3.0, 15.0, 27.0]
