@@ -25,7 +25,7 @@ from clothtool.scene.scene import Scene
 from clothtool.scene.tracks import quat_to_matrices
 from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
 from clothtool.solver.environment import AIR_DENSITY, Environment
-from clothtool.solver.frame import FramePath, Pose
+from clothtool.solver.frame import FramePath, PoseRows
 from clothtool.solver.groupmeter import make_meters
 from clothtool.solver.iteration import FramePlan
 from clothtool.solver.kernels.rows import gather_xyz
@@ -156,9 +156,9 @@ def _track_path(track, planned=()) -> FramePath:
     """The cloth frame that follows ``track``, sampled many times at once; ``planned``: the
     times the bake will ask for (``_track_times``), all sampled in one call."""
 
-    def poses(times: np.ndarray) -> list[Pose]:
-        translations, rotations, _ = track.sample_many(times)
-        return [Pose(m, t) for m, t in zip(quat_to_matrices(rotations), translations)]
+    def poses(times: np.ndarray) -> PoseRows:
+        translations, rotations, _ = track.sample_many(times, scales=False)  # a cloth's frame is rigid
+        return PoseRows(quat_to_matrices(rotations), translations)
 
     return FramePath(lambda time: poses(np.array([time]))[0], poses, planned)
 

@@ -247,23 +247,46 @@ class Track:
         self.__dict__["_prefetched"] = ({float(t): row for row, t in enumerate(times)}, samples)
         return samples
 
-    def sample_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def sample_many(self, times: np.ndarray, scales: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Translations (m,3), unit quaternions (m,4) and scales (m,3) at (m,) ``times``
-        in seconds, all at once (a frame's iterations sample the track together)."""
+        in seconds, all at once (a frame's iterations sample the track together). Without
+        ``scales`` the scales are not interpolated (None): a cloth's moving frame is rigid."""
         times = np.asarray(times, np.float64)
         k = self.times.shape[0]
         if k == 1:
             m = times.shape[0]
-            return (np.repeat(self.translations, m, 0), np.repeat(self.rotations, m, 0), np.repeat(self.scales, m, 0))
+            return (np.repeat(self.translations, m, 0), np.repeat(self.rotations, m, 0),
+                    np.repeat(self.scales, m, 0) if scales else None)
         i = np.clip(np.searchsorted(self.times, times, side="right") - 1, 0, k - 2)
         u = np.clip((times - self.times[i]) / (self.times[i + 1] - self.times[i]), 0.0, 1.0)
         if self.interpolation == "step":
             i = np.where(u >= 1.0, i + 1, i)  # at or past a segment's end key: that key
-            return self.translations[i], self.rotations[i], self.scales[i]
+            return self.translations[i], self.rotations[i], self.scales[i] if scales else None
         if self.interpolation == "linear" or k == 2:
             lerp = lambda a: a[i] + u[:, None] * (a[i + 1] - a[i])  # noqa: E731
-            return lerp(self.translations), slerp_many(self.rotations[i], self.rotations[i + 1], u), lerp(self.scales)
-        return self._catmull_rom(self.translations, i, u), self._spherical_cubic(i, u), self._catmull_rom(self.scales, i, u)
+            rotations = self._identities(i) if self._never_turns() else slerp_many(self.rotations[i], self.rotations[i + 1], u)
+            return lerp(self.translations), rotations, lerp(self.scales) if scales else None
+        rotations = self._identities(i) if self._never_turns() else self._spherical_cubic(i, u)
+        return self._catmull_rom(self.translations, i, u), rotations, self._catmull_rom(self.scales, i, u) if scales else None
+
+    def _never_turns(self) -> bool:
+        """True when every key's rotation is exactly the identity (1, +0, +0, +0): a track of
+        translations (and scales) alone. Slerp and the spherical cubic between identities
+        give the identity exactly (tests/unit/test_tracks_identity.py), so sampling skips
+        them: they are most of a long sample's cost (~0.5 ms for a bake's 600 iteration ends)."""
+        never = self.__dict__.get("_never")
+        if never is None:
+            identity = np.array([1.0, 0.0, 0.0, 0.0])
+            never = bool(np.array_equal(self.rotations, np.broadcast_to(identity, self.rotations.shape))
+                         and not np.signbit(self.rotations).any())
+            object.__setattr__(self, "_never", never)
+        return never
+
+    @staticmethod
+    def _identities(i: np.ndarray) -> np.ndarray:
+        rotations = np.zeros((i.shape[0], 4))
+        rotations[:, 0] = 1.0
+        return rotations
 
     def _neighbours(self, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.maximum(i - 1, 0), np.minimum(i + 2, self.times.shape[0] - 1)

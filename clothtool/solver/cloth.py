@@ -14,6 +14,7 @@ from clothtool.solver.frame import (
     FrameHistory,
     FrameInertia,
     FrameMotionAhead,
+    PLANNED_CHUNK,
     FramePath,
     FrameTerms,
     Pose,
@@ -28,7 +29,6 @@ from clothtool.solver.pipeline import build_stages
 from clothtool.solver.sleep import SleepState
 
 FRAME_STAGE = "frame"  # the profile's name for a frame's iterations run in one compiled call
-AHEAD_FRAMES = 32  # frames of a track's frame motion computed together (FrameMotionAhead)
 
 
 # Particle rows start on a cache line: a float64 row is 32 bytes, and numpy places a big
@@ -170,18 +170,21 @@ class ClothSolver:
         return plan
 
     def _terms_ahead(self, plan: FramePlan, ends: list[float], targets: list[Pose]) -> FrameTerms | None:
-        """The frame's terms from the frame motion computed ahead, AHEAD_FRAMES frames of the
-        track's planned poses at a time (the same bits as advance_many); None when the frame
-        is not on the planned path (advance_many then computes them)."""
+        """The frame's terms from the frame motion computed ahead over all the track's planned
+        poses held (a bake's whole path, up to PLANNED_CHUNK iterations: one vectorised pass;
+        the same bits as advance_many); None when the frame is not on the planned path
+        (advance_many then computes them)."""
         dtype = self.state.cur.dtype
         ahead = self._ahead
         terms = None if ahead is None else ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
         if terms is None:
-            following = self.track.following(ends[0], AHEAD_FRAMES * len(ends))
+            following, rotations, translations = self.track.following_stacked(ends[0], PLANNED_CHUNK)
             if len(following) > len(targets):
-                chain = [self.history.before, self.history.now] + following
+                before, now = self.history.before, self.history.now
                 self._ahead = ahead = FrameMotionAhead(
-                    chain, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency
+                    [before, now] + following, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
+                    np.concatenate([before.rotation[None], now.rotation[None], rotations]),
+                    np.concatenate([before.translation[None], now.translation[None], translations]),
                 )
                 terms = ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
         return terms

@@ -52,6 +52,17 @@ class Pose:
         return (points - self.translation) @ self.rotation
 
 
+class PoseRows(list):
+    """Poses sampled together: the rows of stacked (n,3,3) ``rotations`` and (n,3)
+    ``translations``, which are kept, so that a frame motion computed ahead over hundreds of
+    them takes the stacks as they are instead of stacking the poses again (~0.4 ms a bake)."""
+
+    def __init__(self, rotations: np.ndarray, translations: np.ndarray):
+        super().__init__(map(Pose, rotations, translations))
+        self.rotations = rotations
+        self.translations = translations
+
+
 # Planned times sampled together: a long bake's poses are not all held at once.
 PLANNED_CHUNK = 1024
 
@@ -77,6 +88,7 @@ class FramePath:
         self._planned = np.unique(np.asarray(planned, np.float64))  # sorted
         self._start = 0  # the index in _planned of the first held pose
         self._held: list[Pose] = []  # the poses of _planned[_start:_start + len(_held)]
+        self._stacks: tuple[np.ndarray, np.ndarray] | None = None  # their rotations and translations, once stacked
         self._row: dict[float, int] = {}  # time -> its pose's row in _held
 
     def __call__(self, time: float) -> Pose:
@@ -96,6 +108,19 @@ class FramePath:
         planned times), the objects ``poses`` gives; [] when ``time`` is not planned."""
         row = self._hold(time, count)
         return [] if row is None else self._held[row : row + count]
+
+    def following_stacked(self, time: float, count: int) -> tuple[list[Pose], np.ndarray, np.ndarray]:
+        """``following(time, count)`` and the poses' rotations (m,3,3) and translations (m,3),
+        stacked (views of the held poses' stacks when they were sampled as PoseRows)."""
+        row = self._hold(time, count)
+        if row is None:
+            return [], np.zeros((0, 3, 3)), np.zeros((0, 3))
+        if self._stacks is None:
+            held = self._held
+            self._stacks = (np.stack([pose.rotation for pose in held]), np.stack([pose.translation for pose in held]))
+        rotations, translations = self._stacks
+        rows = slice(row, row + count)
+        return self._held[rows], rotations[rows], translations[rows]
 
     def _sample(self, times) -> list[Pose]:
         if self._many is not None:
@@ -117,7 +142,16 @@ class FramePath:
                 return None
         end = min(first + max(PLANNED_CHUNK, count), planned.shape[0])
         kept = self._held[row:] if row is not None else []
-        self._held = kept + self._sample(planned[first + len(kept) : end])
+        kept_stacks = self._stacks if row is not None else None
+        sampled = self._sample(planned[first + len(kept) : end])
+        self._held = kept + sampled
+        self._stacks = None  # stacked when first asked for, unless sampled stacked
+        if isinstance(sampled, PoseRows):
+            if not kept:
+                self._stacks = (sampled.rotations, sampled.translations)
+            elif kept_stacks is not None:
+                self._stacks = (np.concatenate([kept_stacks[0][row:], sampled.rotations]),
+                                np.concatenate([kept_stacks[1][row:], sampled.translations]))
         self._start = first
         self._row = dict(zip(planned[first:end].tolist(), range(end - first)))
         return 0
@@ -276,12 +310,17 @@ class FrameMotionAhead:
     history and targets are the chain's very Pose objects, at the same ``h``: the same bits
     as ``FrameHistory.advance_many``, which computes the same rows one frame at a time."""
 
-    def __init__(self, chain: list[Pose], gravity, h: float, inertia: FrameInertia, stiffness_frequency: float):
+    def __init__(
+        self, chain: list[Pose], gravity, h: float, inertia: FrameInertia, stiffness_frequency: float,
+        rotations: np.ndarray | None = None, translations: np.ndarray | None = None,
+    ):
+        """``rotations`` and ``translations``: the chain's poses' arrays, stacked, when the
+        caller has them (FramePath.following_stacked); else they are stacked here."""
         self.chain = chain
         self.h = h
         self._position = {id(pose): index for index, pose in enumerate(chain)}
-        self.rotations = np.stack([pose.rotation for pose in chain])
-        self.translations = np.stack([pose.translation for pose in chain])
+        self.rotations = np.stack([pose.rotation for pose in chain]) if rotations is None else rotations
+        self.translations = np.stack([pose.translation for pose in chain]) if translations is None else translations
         self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
         self._scaled: dict[tuple, tuple] = {}  # (scales, dtype) -> the chain's _scaled arrays
 
