@@ -232,3 +232,31 @@ def test_a_bake_samples_a_tracked_cloths_frame_once(scene, monkeypatch):
     bake(scene, "null")
     iterations = FramePlan.iterations_for(1.0 / scene.fps, scene.solver.frequency)
     assert calls == [2 + iterations * (scene.end_frame - scene.start_frame + scene.preroll)]
+
+
+@pytest.mark.parametrize("stacked", [True, False])
+def test_following_stacked_gives_the_poses_arrays_as_they_slide(monkeypatch, stacked):
+    """The stacks ``following_stacked`` gives are the held poses' own rotations and
+    translations, row for row, while the window slides (kept rows and new ones), whether
+    the path samples PoseRows (stacks kept) or plain lists of poses (stacked when asked)."""
+    monkeypatch.setattr(frame_module, "PLANNED_CHUNK", 8)
+    plain = _turning_path()
+
+    def many(times):
+        poses = [plain(float(t)) for t in times]
+        if not stacked:
+            return poses
+        return frame_module.PoseRows(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]))
+
+    planned = [0.1 * (i + 1) for i in range(30)]
+    path = FramePath(plain, many, planned)
+    for start, count in ((0, 5), (3, 10), (12, 8), (25, 10)):
+        poses, rotations, translations = path.following_stacked(planned[start], count)
+        assert poses == path.following(planned[start], count) and len(poses) == min(count, 30 - start)
+        assert all(a is b for a, b in zip(poses, path.following(planned[start], count)))
+        assert rotations.shape == (len(poses), 3, 3) and translations.shape == (len(poses), 3)
+        for index, (pose, rotation, translation) in enumerate(zip(poses, rotations, translations)):
+            assert np.array_equal(pose.rotation, rotation) and np.array_equal(pose.translation, translation)
+            expected = plain(planned[start + index])
+            assert np.array_equal(rotation, expected.rotation) and np.array_equal(translation, expected.translation)
+    assert path.following_stacked(0.123, 3)[0] == []  # not a planned time
