@@ -211,6 +211,7 @@ class CollideStage(Stage):
         # per iteration of the frame (begin_frame): the cloth frame's poses at its start and
         # end (k,8,3), the collider interpolation's alphas, and whether the mesh is posed
         self.frames = np.zeros((1, 8, 3))
+        self._frames_moved = True  # self.frames came from a track's poses (not the identity)
         self.alpha0 = self.alpha1 = self.alpha_step = np.zeros(1)
         self._alpha_iterations = 0  # the iteration count the alphas are for
         self._layouts: dict[str, tuple] = {}  # see _same_layout
@@ -238,16 +239,13 @@ class CollideStage(Stage):
             self.alpha0 = stacked([index / k for index in range(k)], np.float64)
             self.alpha1 = stacked([(index + 1) / k for index in range(k)], np.float64)
             self.alpha_step = self.alpha1 - self.alpha0
-        frames = np.zeros((k, 8, 3))
         terms = self.solver.frame_terms
         if terms is not None:
-            frames[:, 0:3] = terms.rotations[:-1]
-            frames[:, 3] = terms.translations[:-1]
-            frames[:, 4:7] = terms.rotations[1:]
-            frames[:, 7] = terms.translations[1:]
-        else:
-            frames[:, 0:3] = frames[:, 4:7] = np.eye(3)
-        self.frames = frames
+            self.frames = terms.pose_pairs  # the cloth frame's poses at each iteration's start and end
+        elif self.frames.shape[0] != k or self._frames_moved:
+            self.frames = np.zeros((k, 8, 3))  # no track: the identity, the same every frame
+            self.frames[:, 0:3] = self.frames[:, 4:7] = np.eye(3)
+        self._frames_moved = terms is not None
         # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
         self.pose_mesh = np.zeros(k, np.bool_)
         if self.mesh_world[0].shape[0]:

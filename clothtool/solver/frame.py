@@ -206,12 +206,36 @@ class FrameTerms:
     poses: list[Pose]  # k + 1 poses
     rotations: np.ndarray  # f64 (k+1,3,3): the poses' rotations, stacked
     translations: np.ndarray  # f64 (k+1,3): ... and translations
+    pose_pairs: np.ndarray  # f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)
+    # the frame motion computed ahead these rows come from (FrameMotionAhead, its rows), or None
+    ahead: tuple | None = None
 
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
             self.m_cur[index], self.m_prev[index], self.bias[index], self.motion_matrix[index], self.motion_offset[index],
             self.to_local[index],
         )
+
+    def in_frame(self, vector: np.ndarray) -> np.ndarray:
+        """f64 (k,3): the world ``vector`` (3,) in the frame at each iteration's end,
+        ``to_local @ vector``; from the frame motion computed ahead when the terms come from
+        one (one product for all its frames while the vector stays: the same bits, row by row)."""
+        if self.ahead is not None:
+            ahead, rows = self.ahead
+            return ahead.in_frame(vector)[rows]
+        return self.to_local @ vector
+
+
+def pose_pairs(rotations: np.ndarray, translations: np.ndarray) -> np.ndarray:
+    """f64 (n-1,8,3) of n poses' (n,3,3) ``rotations`` and (n,3) ``translations``: row i is
+    pose i (rotation rows 0-2, translation row 3) and pose i+1 (rows 4-7), the cloth frame at
+    an iteration's start and end as the collide stage poses the colliders with it."""
+    pairs = np.empty((max(rotations.shape[0] - 1, 0), 8, 3))
+    pairs[:, 0:3] = rotations[:-1]
+    pairs[:, 3] = translations[:-1]
+    pairs[:, 4:7] = rotations[1:]
+    pairs[:, 7] = translations[1:]
+    return pairs
 
 
 class FrameHistory:
@@ -285,9 +309,12 @@ def _scaled(motion: tuple, scales, dtype) -> tuple[np.ndarray, np.ndarray, np.nd
     )
 
 
-def _frame_terms(motion: tuple, scales, dtype, poses: list[Pose], rotations, translations, scaled=None) -> FrameTerms:
+def _frame_terms(
+    motion: tuple, scales, dtype, poses: list[Pose], rotations, translations, scaled=None, pairs=None, ahead=None
+) -> FrameTerms:
     """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales
-    (``scaled``: their ``_scaled`` arrays when already computed)."""
+    (``scaled``: their ``_scaled`` arrays, ``pairs``: the poses' ``pose_pairs``, when already
+    computed; ``ahead``: the FrameMotionAhead and rows they come from)."""
     m_cur, m_prev, bias = _scaled(motion, scales, dtype) if scaled is None else scaled
     motion_matrix, motion_offset, inv = motion[3:]
     return FrameTerms(
@@ -300,6 +327,8 @@ def _frame_terms(motion: tuple, scales, dtype, poses: list[Pose], rotations, tra
         poses=poses,
         rotations=rotations,
         translations=translations,
+        pose_pairs=pose_pairs(rotations, translations) if pairs is None else pairs,
+        ahead=ahead,
     )
 
 
@@ -322,7 +351,10 @@ class FrameMotionAhead:
         self.rotations = np.stack([pose.rotation for pose in chain]) if rotations is None else rotations
         self.translations = np.stack([pose.translation for pose in chain]) if translations is None else translations
         self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
+        self.pose_pairs = pose_pairs(self.rotations, self.translations)
         self._scaled: dict[tuple, tuple] = {}  # (scales, dtype) -> the chain's _scaled arrays
+        self._last_scaled: tuple = (None, None, None)  # (scales object, dtype, its _scaled arrays)
+        self._in_frame: tuple = (None, None)  # (vector bytes, the chain's to_local @ vector)
 
     def terms(self, history: FrameHistory, targets: list[Pose], scales, h: float, dtype) -> FrameTerms | None:
         """The terms of the frame from ``history`` to ``targets``; None when they are not
@@ -339,7 +371,16 @@ class FrameMotionAhead:
         return _frame_terms(
             tuple(array[rows] for array in self.motion), scales, dtype, chain[poses], self.rotations[poses],
             self.translations[poses], None if scaled is None else tuple(array[rows] for array in scaled),
+            self.pose_pairs[j + 1 : j + 1 + k], (self, rows),
         )
+
+    def in_frame(self, vector: np.ndarray) -> np.ndarray:
+        """f64 (n-2,3): ``vector`` (3,) in the frame at the end of each of the chain's
+        iterations (R^T v), for the last vector asked for (a still or steady wind: every frame)."""
+        key = np.asarray(vector, np.float64).tobytes()
+        if self._in_frame[0] != key:
+            self._in_frame = (key, self.motion[5] @ vector)
+        return self._in_frame[1]
 
     def _scaled_rows(self, scales, dtype, j: int, k: int):
         """``_scaled`` of every row of the chain with each frame's iterations at ``scales``
@@ -347,9 +388,13 @@ class FrameMotionAhead:
         None when row ``j`` does not start a frame of ``k`` iterations."""
         if j % k:
             return None
+        last_scales, last_dtype, scaled = self._last_scaled
+        if scales is last_scales and dtype is last_dtype:  # the solver's scales as last frame: no key to build
+            return scaled
         key = (np.asarray(scales, np.float64).tobytes(), np.dtype(dtype))
         scaled = self._scaled.get(key)
         if scaled is None:
             rows = self.motion[0].shape[0]
             scaled = self._scaled[key] = _scaled(self.motion, np.resize(np.asarray(scales, np.float64), rows), dtype)
+        self._last_scaled = (scales, dtype, scaled)
         return scaled

@@ -167,9 +167,14 @@ def test_frame_motion_ahead_gives_the_bits_of_advance_many(dtype):
     for frame in range(5):
         expected = history.advance_many(targets, scales, gravity, h, inertia, 90.0, dtype)
         got = ahead.terms(history, targets, scales, h, dtype)
-        for name in ("m_cur", "m_prev", "bias", "motion_matrix", "motion_offset", "to_local", "rotations", "translations"):
+        for name in ("m_cur", "m_prev", "bias", "motion_matrix", "motion_offset", "to_local", "rotations", "translations",
+                     "pose_pairs"):
             a, b = getattr(got, name), getattr(expected, name)
             assert a.dtype == b.dtype and np.array_equal(a, b), (frame, name)
+        # a wind in the frame: the chain's one product gives each frame's rows bit for bit
+        wind = np.array([3.0, -0.7, 1.3]) * (frame + 1)
+        assert got.ahead is not None and expected.ahead is None
+        assert got.in_frame(wind).tobytes() == expected.in_frame(wind).tobytes()
         assert all(p is q for p, q in zip(got.poses, expected.poses))
         history.before, history.now = got.poses[-2:]
         targets = path.poses(ends[(frame + 1) * k:(frame + 2) * k])
@@ -260,3 +265,15 @@ def test_following_stacked_gives_the_poses_arrays_as_they_slide(monkeypatch, sta
             expected = plain(planned[start + index])
             assert np.array_equal(rotation, expected.rotation) and np.array_equal(translation, expected.translation)
     assert path.following_stacked(0.123, 3)[0] == []  # not a planned time
+
+
+def test_pose_pairs_are_each_iterations_start_and_end_pose():
+    path = _turning_path()
+    poses = [path(0.1 * i) for i in range(5)]
+    pairs = frame_module.pose_pairs(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]))
+    assert pairs.shape == (4, 8, 3)
+    for i in range(4):
+        np.testing.assert_array_equal(pairs[i, 0:3], poses[i].rotation)
+        np.testing.assert_array_equal(pairs[i, 3], poses[i].translation)
+        np.testing.assert_array_equal(pairs[i, 4:7], poses[i + 1].rotation)
+        np.testing.assert_array_equal(pairs[i, 7], poses[i + 1].translation)
