@@ -277,3 +277,21 @@ def test_pose_pairs_are_each_iterations_start_and_end_pose():
         np.testing.assert_array_equal(pairs[i, 3], poses[i].translation)
         np.testing.assert_array_equal(pairs[i, 4:7], poses[i + 1].rotation)
         np.testing.assert_array_equal(pairs[i, 7], poses[i + 1].translation)
+
+
+@pytest.mark.parametrize("fps, frequency, preroll", [(10.0, 240.0, 0), (24.0, 300.0, 2), (30.0, 10.0, 1)])
+def test_track_times_are_the_plans_iteration_ends(scene, fps, frequency, preroll):
+    """The planned times, worked out for all frames at once, are the very floats the frames'
+    plans give (a FramePath finds a pose by its time)."""
+    scene = dataclasses.replace(scene, fps=fps, preroll=preroll,
+                                solver=dataclasses.replace(scene.solver, frequency=frequency))
+    frame_dt = 1.0 / scene.fps
+    iterations = FramePlan.iterations_for(frame_dt, scene.solver.frequency)
+    first = scene.start_frame - scene.preroll + 1
+    start = scene.frame_time(first - 1)
+    expected = [start - frame_dt / iterations, start]
+    for frame in range(first, scene.end_frame + 1):
+        plan = FramePlan(frame, scene.frame_time(frame - 1), frame_dt, iterations, frame_dt / iterations, 0.0,
+                         scene.frame_time(frame))
+        expected += [plan.iteration_end(index) for index in range(iterations)]
+    assert _track_times(scene) == expected
