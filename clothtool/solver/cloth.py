@@ -151,7 +151,7 @@ class ClothSolver:
         self.frame_scales = self._scales(plan)
         self.frame_terms = None
         if self.track is not None:
-            ends = [plan.iteration_end(index) for index in range(plan.iterations)]
+            ends = plan.iteration_ends()
             terms = None
             if self._teleport_path:
                 targets = [self._teleport_path(t) for t in ends]

@@ -27,6 +27,7 @@ stiffness-frequency step and converted in log space like damping.
 from __future__ import annotations
 
 import dataclasses
+import operator
 from typing import Callable
 
 import numpy as np
@@ -97,10 +98,9 @@ class FramePath:
 
     def poses(self, times) -> list[Pose]:
         if len(times) and self._hold(times[0], len(times)) is not None:
-            rows = [self._row.get(t) for t in times]
+            rows = list(map(self._row.get, times))
             if None not in rows:
-                held = self._held
-                return [held[row] for row in rows if row is not None]
+                return list(map(self._held.__getitem__, rows))
         return self._sample(times)
 
     def following(self, time: float, count: int) -> list[Pose]:
@@ -363,7 +363,7 @@ class FrameMotionAhead:
         j = self._position.get(id(history.before))
         if h != self.h or j is None or j + 2 + k > len(chain) or chain[j] is not history.before:
             return None
-        if chain[j + 1] is not history.now or any(chain[j + 2 + i] is not target for i, target in enumerate(targets)):
+        if chain[j + 1] is not history.now or not all(map(operator.is_, chain[j + 2 : j + 2 + k], targets)):
             return None
         rows = slice(j, j + k)
         poses = slice(j + 1, j + 2 + k)

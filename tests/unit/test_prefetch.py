@@ -295,3 +295,10 @@ def test_track_times_are_the_plans_iteration_ends(scene, fps, frequency, preroll
                          scene.frame_time(frame))
         expected += [plan.iteration_end(index) for index in range(iterations)]
     assert _track_times(scene) == expected
+
+
+@pytest.mark.parametrize("frame_dt, iterations", [(1.0 / 24.0, 13), (1.0 / 30.0, 1), (0.1, 7)])
+def test_iteration_ends_are_each_iteration_end(frame_dt, iterations):
+    for frame, time in ((1, 0.0), (17, 16 * frame_dt), (400, 399 * frame_dt)):
+        plan = FramePlan(frame, time, frame_dt, iterations, frame_dt / iterations, 0.0, frame * frame_dt)
+        assert plan.iteration_ends() == [plan.iteration_end(index) for index in range(iterations)]
