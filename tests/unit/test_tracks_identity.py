@@ -1,13 +1,14 @@
 """A track that never turns (every key's rotation the identity) is sampled without slerps:
-the same bits as interpolating the identities, which give the identity exactly; and a
-cloth's rigid frame is sampled without its scales, with the same translations and rotations."""
+the same bits as interpolating the identities, which give the identity exactly; a cloth's
+rigid frame is sampled without its scales, with the same translations and rotations; and
+tracks sampled together give each the bits of sampling it alone."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from clothtool.scene.tracks import Track, euler_xyz_to_quat
+from clothtool.scene.tracks import Track, euler_xyz_to_quat, sample_tracks
 
 
 def _track(interpolation: str, keys: int, rotations=None) -> Track:
@@ -57,3 +58,22 @@ def test_sampling_without_scales_keeps_translations_and_rotations(interpolation)
     assert rigid[2] is None
     for got, want in zip(rigid[:2], full[:2]):
         assert got.tobytes() == want.tobytes()
+
+
+def _turning(interpolation: str, keys: int, seed: int) -> Track:
+    rng = np.random.default_rng(seed)
+    rotations = np.array([euler_xyz_to_quat(rng.uniform(-90.0, 90.0, 3)) for _ in range(keys)])
+    return _track(interpolation, keys, rotations)
+
+
+def test_tracks_sampled_together_are_the_bits_of_each_alone():
+    tracks = [_turning("cubic", 5, 1), _track("cubic", 4), _turning("cubic", 3, 2), _turning("linear", 4, 3),
+              _turning("step", 3, 4), _turning("cubic", 2, 5), _track("linear", 1), _turning("cubic", 7, 6)]
+    times = _times(tracks[-1])
+    together = sample_tracks(tracks, times)
+    assert len(together) == len(tracks)
+    for track, got in zip(tracks, together):
+        expected = track.sample_many(times)
+        for a, b in zip(got, expected):
+            assert a.shape == b.shape and a.tobytes() == b.tobytes(), track.interpolation
+    assert sample_tracks([], times) == []
