@@ -302,15 +302,19 @@ class Track:
         """(k-1, 2, 4): each segment's inner control quaternions, computed once per track."""
         controls = self.__dict__.get("_controls")
         if controls is None:
-            q, k = self.rotations, self.times.shape[0]
-            i = np.arange(k - 1)
-            a, d = self._neighbours(i)
-            q0, q1, q2, q3 = q[a].T, q[i].T, q[i + 1].T, q[d].T  # quat_multiply takes components first
-            first = quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2).T) / 6.0)
-            second = quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3).T) / 6.0)
-            controls = np.stack([quat_multiply(q1, first.T).T, quat_multiply(q2, second.T).T], axis=1)
+            i = np.arange(self.times.shape[0] - 1)
+            controls = _bezier_controls(self.rotations, i, *self._neighbours(i))
             object.__setattr__(self, "_controls", controls)
         return controls
+
+
+def _bezier_controls(q: np.ndarray, i, a, d) -> np.ndarray:
+    """(segments, 2, 4): the inner control quaternions of the segments from key rotations i
+    to i+1 (a and d the keys before and after them), row by row."""
+    q0, q1, q2, q3 = q[a].T, q[i].T, q[i + 1].T, q[d].T  # quat_multiply takes components first
+    first = quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2).T) / 6.0)
+    second = quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3).T) / 6.0)
+    return np.stack([quat_multiply(q1, first.T).T, quat_multiply(q2, second.T).T], axis=1)
 
 
 def _catmull_rom(values: np.ndarray, t: np.ndarray, i, a, d, u: np.ndarray) -> np.ndarray:
@@ -345,7 +349,7 @@ def sample_tracks(tracks, times) -> list[tuple[np.ndarray, np.ndarray, np.ndarra
                 if track.interpolation == "cubic" and track.times.shape[0] > 2 and not track._never_turns()]
     if len(together) < 2:
         return [track.sample_many(times) for track in tracks]
-    rows, neighbours, segments, parameters = [], [], [], []
+    rows, neighbours, segments, parameters, first_keys = [], [], [], [], []
     keys = segments_before = 0
     for track in together:
         k = track.times.shape[0]
@@ -355,19 +359,41 @@ def sample_tracks(tracks, times) -> list[tuple[np.ndarray, np.ndarray, np.ndarra
         rows.append(i + keys)
         neighbours.append((a + keys, d + keys))
         segments.append(i + segments_before)  # the track's control rows follow the previous tracks'
+        first_keys.append(keys)
         keys += k
         segments_before += k - 1
     i, u, c = np.concatenate(rows), np.concatenate(parameters), np.concatenate(segments)
     a, d = np.concatenate([n[0] for n in neighbours]), np.concatenate([n[1] for n in neighbours])
     t = np.concatenate([track.times for track in together])
+    key_rotations = np.concatenate([track.rotations for track in together])
     translations = _catmull_rom(np.concatenate([track.translations for track in together]), t, i, a, d, u)
     scales = _catmull_rom(np.concatenate([track.scales for track in together]), t, i, a, d, u)
-    rotations = _spherical_cubic(np.concatenate([track.rotations for track in together]),
-                                 np.concatenate([track._bezier_controls() for track in together]), i, c, u)
+    rotations = _spherical_cubic(key_rotations, _controls_of(together, key_rotations, first_keys), i, c, u)
     m = times.shape[0]
     sampled = {id(track): (translations[n * m:(n + 1) * m], rotations[n * m:(n + 1) * m], scales[n * m:(n + 1) * m])
                for n, track in enumerate(together)}
     return [sampled[id(track)] if id(track) in sampled else track.sample_many(times) for track in tracks]
+
+
+def _controls_of(tracks, key_rotations: np.ndarray, first_keys: list[int]) -> np.ndarray:
+    """The tracks' Bezier controls stacked (Track._bezier_controls), those not yet computed
+    computed together from ``key_rotations`` (the tracks' key rotations stacked, track n's
+    from row first_keys[n]) and kept on their tracks."""
+    missing = [n for n, track in enumerate(tracks) if "_controls" not in track.__dict__]
+    if len(missing) > 1:
+        rows, before, after = [], [], []
+        for n in missing:
+            segment = np.arange(tracks[n].times.shape[0] - 1)
+            a, d = tracks[n]._neighbours(segment)
+            rows.append(segment + first_keys[n])
+            before.append(a + first_keys[n])
+            after.append(d + first_keys[n])
+        controls = _bezier_controls(key_rotations, np.concatenate(rows), np.concatenate(before), np.concatenate(after))
+        start = 0
+        for n, segment in zip(missing, rows):
+            object.__setattr__(tracks[n], "_controls", controls[start:start + segment.shape[0]])
+            start += segment.shape[0]
+    return np.concatenate([track._bezier_controls() for track in tracks])
 
 
 def static_track(name: str, translation=(0.0, 0.0, 0.0), rotation=(1.0, 0.0, 0.0, 0.0), scale=(1.0, 1.0, 1.0)) -> Track:
