@@ -18,6 +18,7 @@ from clothtool.solver.frame import (
     FramePath,
     FrameTerms,
     Pose,
+    PoseRows,
     extrapolated_path,
 )
 from clothtool.solver.framefn import FusedFrame, compile_for
@@ -152,13 +153,12 @@ class ClothSolver:
         self.frame_terms = None
         if self.track is not None:
             ends = plan.iteration_ends()
-            terms = None
-            if self._teleport_path:
-                targets = [self._teleport_path(t) for t in ends]
-            else:
-                targets = self.track.poses(ends)
-                terms = self._terms_ahead(plan, ends, targets)
+            terms = None if self._teleport_path else self._terms_ahead(plan, ends)
             if terms is None:
+                if self._teleport_path:
+                    targets = [self._teleport_path(t) for t in ends]
+                else:
+                    targets = self.track.poses(ends)
                 terms = self.history.advance_many(
                     targets, self.frame_scales, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
                     self.state.cur.dtype,
@@ -169,24 +169,27 @@ class ClothSolver:
             stage.begin_frame(plan)
         return plan
 
-    def _terms_ahead(self, plan: FramePlan, ends: list[float], targets: list[Pose]) -> FrameTerms | None:
+    def _terms_ahead(self, plan: FramePlan, ends: list[float]) -> FrameTerms | None:
         """The frame's terms from the frame motion computed ahead over all the track's planned
         poses held (a bake's whole path, up to PLANNED_CHUNK iterations: one vectorised pass;
         the same bits as advance_many); None when the frame is not on the planned path
         (advance_many then computes them)."""
         dtype = self.state.cur.dtype
         ahead = self._ahead
-        terms = None if ahead is None else ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+        terms = None if ahead is None else ahead.terms(self.history, ends, self.frame_scales, plan.h, dtype)
         if terms is None:
-            following, rotations, translations = self.track.following_stacked(ends[0], PLANNED_CHUNK)
-            if len(following) > len(targets):
+            following, times = self.track.following_rows(ends[0], PLANNED_CHUNK)
+            if len(following) > len(ends):
                 before, now = self.history.before, self.history.now
-                self._ahead = ahead = FrameMotionAhead(
-                    [before, now] + following, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
-                    np.concatenate([before.rotation[None], now.rotation[None], rotations]),
-                    np.concatenate([before.translation[None], now.translation[None], translations]),
+                chain = PoseRows(
+                    np.concatenate([before.rotation[None], now.rotation[None], following.rotations]),
+                    np.concatenate([before.translation[None], now.translation[None], following.translations]),
+                    {0: before, 1: now},
                 )
-                terms = ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+                self._ahead = ahead = FrameMotionAhead(
+                    chain, times, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency
+                )
+                terms = ahead.terms(self.history, ends, self.frame_scales, plan.h, dtype)
         return terms
 
     def _teleport(self, plan: FramePlan) -> None:

@@ -27,7 +27,7 @@ stiffness-frequency step and converted in log space like damping.
 from __future__ import annotations
 
 import dataclasses
-import operator
+from collections.abc import Sequence
 from typing import Callable
 
 import numpy as np
@@ -53,15 +53,57 @@ class Pose:
         return (points - self.translation) @ self.rotation
 
 
-class PoseRows(list):
+class PoseRows(Sequence):
     """Poses sampled together: the rows of stacked (n,3,3) ``rotations`` and (n,3)
-    ``translations``, which are kept, so that a frame motion computed ahead over hundreds of
-    them takes the stacks as they are instead of stacking the poses again (~0.4 ms a bake)."""
+    ``translations``. A row's Pose is made when first asked for and then kept, the same
+    object each time (callers tell poses apart by identity): a bake plans hundreds of
+    iteration ends at once, but its frames ask for two poses each (~0.4 ms a bake to make
+    them all up front). ``known``: rows' Pose objects that exist already. A slice is a
+    PoseRows of the same Poses (made or not yet)."""
 
-    def __init__(self, rotations: np.ndarray, translations: np.ndarray):
-        super().__init__(map(Pose, rotations, translations))
+    def __init__(self, rotations: np.ndarray, translations: np.ndarray, known: dict[int, Pose] | None = None):
         self.rotations = rotations
         self.translations = translations
+        self._poses: list[Pose | None] = [None] * rotations.shape[0]  # shared by slices
+        self._start = 0  # this one's first row in _poses
+        for row, pose in (known or {}).items():
+            self._poses[row] = pose
+
+    @classmethod
+    def of(cls, poses) -> "PoseRows":
+        """The PoseRows of ``poses`` (a PoseRows, or Pose objects, which it keeps)."""
+        if isinstance(poses, PoseRows):
+            return poses
+        poses = list(poses)
+        if not poses:
+            return cls(np.zeros((0, 3, 3)), np.zeros((0, 3)))
+        return cls(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]), dict(enumerate(poses)))
+
+    def __len__(self) -> int:
+        return self.rotations.shape[0]
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            start, stop, step = index.indices(len(self))
+            if step != 1:
+                return [self[i] for i in range(start, stop, step)]
+            rows = PoseRows.__new__(PoseRows)
+            rows.rotations, rows.translations = self.rotations[start:stop], self.translations[start:stop]
+            rows._poses, rows._start = self._poses, self._start + start
+            return rows
+        if index < 0:
+            index += len(self)
+        if not 0 <= index < len(self):
+            raise IndexError("pose row out of range")
+        pose = self._poses[self._start + index]
+        if pose is None:
+            pose = self._poses[self._start + index] = Pose(self.rotations[index], self.translations[index])
+        return pose
+
+    def known(self) -> dict[int, Pose]:
+        """The rows whose Pose objects exist, by row."""
+        poses, start = self._poses, self._start
+        return {row: poses[start + row] for row in range(len(self)) if poses[start + row] is not None}
 
 
 # Planned times sampled together: a long bake's poses are not all held at once.
@@ -88,8 +130,7 @@ class FramePath:
         self._many = many
         self._planned = np.unique(np.asarray(planned, np.float64))  # sorted
         self._start = 0  # the index in _planned of the first held pose
-        self._held: list[Pose] = []  # the poses of _planned[_start:_start + len(_held)]
-        self._stacks: tuple[np.ndarray, np.ndarray] | None = None  # their rotations and translations, once stacked
+        self._held = PoseRows.of([])  # the poses of _planned[_start:_start + len(_held)]
         self._row: dict[float, int] = {}  # time -> its pose's row in _held
 
     def __call__(self, time: float) -> Pose:
@@ -100,27 +141,23 @@ class FramePath:
         if len(times) and self._hold(times[0], len(times)) is not None:
             rows = list(map(self._row.get, times))
             if None not in rows:
-                return list(map(self._held.__getitem__, rows))
+                return list(map(self._held.__getitem__, rows))  # type: ignore[arg-type]
         return self._sample(times)
 
     def following(self, time: float, count: int) -> list[Pose]:
         """Up to ``count`` planned poses from the one at ``time`` on (fewer at the end of the
         planned times), the objects ``poses`` gives; [] when ``time`` is not planned."""
-        row = self._hold(time, count)
-        return [] if row is None else self._held[row : row + count]
+        return list(self.following_rows(time, count)[0])
 
-    def following_stacked(self, time: float, count: int) -> tuple[list[Pose], np.ndarray, np.ndarray]:
-        """``following(time, count)`` and the poses' rotations (m,3,3) and translations (m,3),
-        stacked (views of the held poses' stacks when they were sampled as PoseRows)."""
+    def following_rows(self, time: float, count: int) -> tuple[PoseRows, list[float]]:
+        """``following(time, count)`` as PoseRows (its poses made when asked for: the same
+        objects as ``poses`` gives), and their times; empty when ``time`` is not planned."""
         row = self._hold(time, count)
         if row is None:
-            return [], np.zeros((0, 3, 3)), np.zeros((0, 3))
-        if self._stacks is None:
-            held = self._held
-            self._stacks = (np.stack([pose.rotation for pose in held]), np.stack([pose.translation for pose in held]))
-        rotations, translations = self._stacks
-        rows = slice(row, row + count)
-        return self._held[rows], rotations[rows], translations[rows]
+            return PoseRows.of([]), []
+        first = self._start + row
+        rows = self._held[row : row + count]
+        return rows, self._planned[first : first + len(rows)].tolist()
 
     def _sample(self, times) -> list[Pose]:
         if self._many is not None:
@@ -141,17 +178,15 @@ class FramePath:
             if first >= planned.shape[0] or planned[first] != time:
                 return None
         end = min(first + max(PLANNED_CHUNK, count), planned.shape[0])
-        kept = self._held[row:] if row is not None else []
-        kept_stacks = self._stacks if row is not None else None
-        sampled = self._sample(planned[first + len(kept) : end])
-        self._held = kept + sampled
-        self._stacks = None  # stacked when first asked for, unless sampled stacked
-        if isinstance(sampled, PoseRows):
-            if not kept:
-                self._stacks = (sampled.rotations, sampled.translations)
-            elif kept_stacks is not None:
-                self._stacks = (np.concatenate([kept_stacks[0][row:], sampled.rotations]),
-                                np.concatenate([kept_stacks[1][row:], sampled.translations]))
+        kept = self._held[row:] if row is not None else PoseRows.of([])
+        sampled = PoseRows.of(self._sample(planned[first + len(kept) : end]))
+        if len(kept) == 0:
+            self._held = sampled
+        else:  # the poses already made stay the same objects
+            known = kept.known()
+            known.update({len(kept) + r: pose for r, pose in sampled.known().items()})
+            self._held = PoseRows(np.concatenate([kept.rotations, sampled.rotations]),
+                                  np.concatenate([kept.translations, sampled.translations]), known)
         self._start = first
         self._row = dict(zip(planned[first:end].tolist(), range(end - first)))
         return 0
@@ -203,7 +238,7 @@ class FrameTerms:
     motion_matrix: np.ndarray  # f32 (k,3,3)
     motion_offset: np.ndarray  # f32 (k,3)
     to_local: np.ndarray  # f64 (k,3,3)
-    poses: list[Pose]  # k + 1 poses
+    poses: Sequence[Pose]  # k + 1 poses
     rotations: np.ndarray  # f64 (k+1,3,3): the poses' rotations, stacked
     translations: np.ndarray  # f64 (k+1,3): ... and translations
     pose_pairs: np.ndarray  # f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)
@@ -310,7 +345,7 @@ def _scaled(motion: tuple, scales, dtype) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def _frame_terms(
-    motion: tuple, scales, dtype, poses: list[Pose], rotations, translations, scaled=None, pairs=None, ahead=None
+    motion: tuple, scales, dtype, poses: Sequence[Pose], rotations, translations, scaled=None, pairs=None, ahead=None
 ) -> FrameTerms:
     """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales
     (``scaled``: their ``_scaled`` arrays, ``pairs``: the poses' ``pose_pairs``, when already
@@ -333,38 +368,39 @@ def _frame_terms(
 
 
 class FrameMotionAhead:
-    """The frame motion of many iterations computed at once: ``chain`` is the pose history
-    (P_{n-1}, P_n) followed by the poses at the ends of the next iterations, frames of them
-    (a track's planned poses). ``terms`` gives a frame's terms from these arrays when its
-    history and targets are the chain's very Pose objects, at the same ``h``: the same bits
-    as ``FrameHistory.advance_many``, which computes the same rows one frame at a time."""
+    """The frame motion of many iterations computed at once: ``chain`` (PoseRows) is the pose
+    history (P_{n-1}, P_n) followed by the poses at the ends of the next iterations, frames of
+    them (a track's planned poses), and ``times`` the seconds of those ends. ``terms`` gives a
+    frame's terms from these arrays when its history is the chain's very Pose objects where
+    the last frame left it and its iterations end at the chain's next times, at the same
+    ``h``: the same bits as ``FrameHistory.advance_many``, which computes the same rows one
+    frame at a time."""
 
     def __init__(
-        self, chain: list[Pose], gravity, h: float, inertia: FrameInertia, stiffness_frequency: float,
-        rotations: np.ndarray | None = None, translations: np.ndarray | None = None,
+        self, chain: PoseRows, times: list[float], gravity, h: float, inertia: FrameInertia, stiffness_frequency: float
     ):
-        """``rotations`` and ``translations``: the chain's poses' arrays, stacked, when the
-        caller has them (FramePath.following_stacked); else they are stacked here."""
         self.chain = chain
+        self.times = times
         self.h = h
-        self._position = {id(pose): index for index, pose in enumerate(chain)}
-        self.rotations = np.stack([pose.rotation for pose in chain]) if rotations is None else rotations
-        self.translations = np.stack([pose.translation for pose in chain]) if translations is None else translations
+        self._row = 0  # the chain row of the next frame's P_{n-1}
+        self.rotations = chain.rotations
+        self.translations = chain.translations
         self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
         self.pose_pairs = pose_pairs(self.rotations, self.translations)
         self._scaled: dict[tuple, tuple] = {}  # (scales, dtype) -> the chain's _scaled arrays
         self._last_scaled: tuple = (None, None, None)  # (scales object, dtype, its _scaled arrays)
         self._in_frame: tuple = (None, None)  # (vector bytes, the chain's to_local @ vector)
 
-    def terms(self, history: FrameHistory, targets: list[Pose], scales, h: float, dtype) -> FrameTerms | None:
-        """The terms of the frame from ``history`` to ``targets``; None when they are not
-        this chain's (another path, a teleport, the chain's end) or ``h`` differs."""
-        chain, k = self.chain, len(targets)
-        j = self._position.get(id(history.before))
-        if h != self.h or j is None or j + 2 + k > len(chain) or chain[j] is not history.before:
+    def terms(self, history: FrameHistory, ends: list[float], scales, h: float, dtype) -> FrameTerms | None:
+        """The terms of the frame from ``history`` through iterations ending at ``ends``
+        seconds; None when they are not this chain's next (another path, a teleport, the
+        chain's end) or ``h`` differs."""
+        chain, j, k = self.chain, self._row, len(ends)
+        if h != self.h or j + 2 + k > len(chain) or chain[j] is not history.before or chain[j + 1] is not history.now:
             return None
-        if chain[j + 1] is not history.now or not all(map(operator.is_, chain[j + 2 : j + 2 + k], targets)):
+        if self.times[j : j + k] != ends:
             return None
+        self._row = j + k
         rows = slice(j, j + k)
         poses = slice(j + 1, j + 2 + k)
         scaled = self._scaled_rows(scales, dtype, j, k)

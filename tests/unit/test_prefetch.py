@@ -14,7 +14,7 @@ from clothtool.bake import _track_path, _track_times
 from clothtool.loading import load_scene
 from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver import frame as frame_module
-from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose
+from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose, PoseRows
 from clothtool.solver.iteration import FramePlan
 from tests.conftest import EXAMPLES
 
@@ -162,11 +162,11 @@ def test_frame_motion_ahead_gives_the_bits_of_advance_many(dtype):
     targets = path.poses(ends[:k])
     history = FrameHistory(path(-h))
     history.now = path(0.0)
-    ahead = FrameMotionAhead([history.before, history.now] + path.following(ends[0], 5 * k), gravity, h, inertia, 90.0)
+    ahead = _ahead(history, path, ends, 5 * k, gravity, h, inertia, 90.0)
     scales = np.linspace(0.9, 1.0, k)
     for frame in range(5):
         expected = history.advance_many(targets, scales, gravity, h, inertia, 90.0, dtype)
-        got = ahead.terms(history, targets, scales, h, dtype)
+        got = ahead.terms(history, ends[frame * k:(frame + 1) * k], scales, h, dtype)
         for name in ("m_cur", "m_prev", "bias", "motion_matrix", "motion_offset", "to_local", "rotations", "translations",
                      "pose_pairs"):
             a, b = getattr(got, name), getattr(expected, name)
@@ -175,12 +175,29 @@ def test_frame_motion_ahead_gives_the_bits_of_advance_many(dtype):
         wind = np.array([3.0, -0.7, 1.3]) * (frame + 1)
         assert got.ahead is not None and expected.ahead is None
         assert got.in_frame(wind).tobytes() == expected.in_frame(wind).tobytes()
-        assert all(p is q for p, q in zip(got.poses, expected.poses))
+        assert len(got.poses) == k + 1 and got.poses[0] is history.now  # the chain's own poses ...
+        for p, q in zip(got.poses, expected.poses):  # ... at the targets' times
+            assert np.array_equal(p.rotation, q.rotation) and np.array_equal(p.translation, q.translation)
         history.before, history.now = got.poses[-2:]
         targets = path.poses(ends[(frame + 1) * k:(frame + 2) * k])
-    # past its chain, at another h, or from a history off the chain: None (advance_many then)
-    assert ahead.terms(history, targets, scales, h, dtype) is None
-    assert ahead.terms(FrameHistory(path(0.5)), path.poses(ends[:k]), scales, h, dtype) is None
+    # past its chain, at another h, from a history off the chain or at other times: None
+    assert ahead.terms(history, ends[5 * k:6 * k], scales, h, dtype) is None
+    again = _ahead(history, path, ends[5 * k:], 2 * k, gravity, h, inertia, 90.0)
+    assert again.terms(history, ends[5 * k:6 * k], scales, 2.0 * h, dtype) is None
+    assert again.terms(FrameHistory(path(0.5)), ends[5 * k:6 * k], scales, h, dtype) is None
+    assert again.terms(history, ends[5 * k + 1:6 * k + 1], scales, h, dtype) is None
+    assert again.terms(history, ends[5 * k:6 * k], scales, h, dtype) is not None
+
+
+def _ahead(history, path, ends, count, *motion) -> FrameMotionAhead:
+    """The frame motion computed ahead from ``history`` over the path's next ``count`` planned
+    poses from ``ends[0]`` on (as the solver builds it)."""
+    following, times = path.following_rows(ends[0], count)
+    assert times == ends[:count]
+    chain = PoseRows(np.concatenate([history.before.rotation[None], history.now.rotation[None], following.rotations]),
+                     np.concatenate([history.before.translation[None], history.now.translation[None],
+                                     following.translations]), {0: history.before, 1: history.now})
+    return FrameMotionAhead(chain, times, *motion)
 
 
 def test_frame_motion_ahead_matches_world_space_verlet():
@@ -190,8 +207,8 @@ def test_frame_motion_ahead_matches_world_space_verlet():
     path = _turning_path([h * (i + 1) for i in range(20)])
     history = FrameHistory(path(-h))
     history.now = path(0.0)
-    ahead = FrameMotionAhead([history.before, history.now] + path.following(h, 20), np.zeros(3), h, FrameInertia(), 1.0)
-    terms = ahead.terms(history, path.poses([h * (i + 1) for i in range(4)]), np.ones(4), h, np.float64)
+    ahead = _ahead(history, path, [h * (i + 1) for i in range(20)], 20, np.zeros(3), h, FrameInertia(), 1.0)
+    terms = ahead.terms(history, [h * (i + 1) for i in range(4)], np.ones(4), h, np.float64)
     world = np.array([0.3, -0.2, 0.5])
     before, now = history.before.to_local(world), history.now.to_local(world)
     for i in range(4):
@@ -240,10 +257,10 @@ def test_a_bake_samples_a_tracked_cloths_frame_once(scene, monkeypatch):
 
 
 @pytest.mark.parametrize("stacked", [True, False])
-def test_following_stacked_gives_the_poses_arrays_as_they_slide(monkeypatch, stacked):
-    """The stacks ``following_stacked`` gives are the held poses' own rotations and
-    translations, row for row, while the window slides (kept rows and new ones), whether
-    the path samples PoseRows (stacks kept) or plain lists of poses (stacked when asked)."""
+def test_following_rows_are_the_held_poses_as_they_slide(monkeypatch, stacked):
+    """``following_rows`` gives the held poses (the very objects ``poses`` and ``following``
+    give, made when first asked for) with their stacked arrays and times, while the window
+    slides (kept rows and new ones), whether the path samples PoseRows or lists of poses."""
     monkeypatch.setattr(frame_module, "PLANNED_CHUNK", 8)
     plain = _turning_path()
 
@@ -251,20 +268,34 @@ def test_following_stacked_gives_the_poses_arrays_as_they_slide(monkeypatch, sta
         poses = [plain(float(t)) for t in times]
         if not stacked:
             return poses
-        return frame_module.PoseRows(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]))
+        return PoseRows(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]))
 
     planned = [0.1 * (i + 1) for i in range(30)]
     path = FramePath(plain, many, planned)
     for start, count in ((0, 5), (3, 10), (12, 8), (25, 10)):
-        poses, rotations, translations = path.following_stacked(planned[start], count)
-        assert poses == path.following(planned[start], count) and len(poses) == min(count, 30 - start)
-        assert all(a is b for a, b in zip(poses, path.following(planned[start], count)))
-        assert rotations.shape == (len(poses), 3, 3) and translations.shape == (len(poses), 3)
-        for index, (pose, rotation, translation) in enumerate(zip(poses, rotations, translations)):
+        rows, times = path.following_rows(planned[start], count)
+        assert len(rows) == min(count, 30 - start) and times == planned[start:start + len(rows)]
+        assert all(a is b for a, b in zip(rows, path.following(planned[start], count)))
+        assert all(a is b for a, b in zip(rows, path.poses(times)))
+        assert rows.rotations.shape == (len(rows), 3, 3) and rows.translations.shape == (len(rows), 3)
+        for index, (pose, rotation, translation) in enumerate(zip(rows, rows.rotations, rows.translations)):
             assert np.array_equal(pose.rotation, rotation) and np.array_equal(pose.translation, translation)
             expected = plain(planned[start + index])
             assert np.array_equal(rotation, expected.rotation) and np.array_equal(translation, expected.translation)
-    assert path.following_stacked(0.123, 3)[0] == []  # not a planned time
+    assert len(path.following_rows(0.123, 3)[0]) == 0  # not a planned time
+
+
+def test_pose_rows_make_each_pose_once_and_slices_share_them():
+    rotations, translations = np.stack([np.eye(3)] * 5), np.arange(15.0).reshape(5, 3)
+    known = Pose(np.eye(3), np.array([0.0, 1.0, 2.0]))
+    rows = PoseRows(rotations, translations, {0: known})
+    assert rows[0] is known and rows[-1] is rows[4] and rows[1:4][2] is rows[3]
+    np.testing.assert_array_equal(rows[2].translation, [6.0, 7.0, 8.0])
+    assert rows[3:][0] is rows[3] and len(rows[3:]) == 2 and list(rows[3:]) == [rows[3], rows[4]]
+    assert set(rows[1:].known()) == {1, 2, 3}  # rows 2-4 were made above (row 1 never), numbered from the slice
+    with pytest.raises(IndexError):
+        rows[5]
+    assert PoseRows.of([known])[0] is known
 
 
 def test_pose_pairs_are_each_iterations_start_and_end_pose():
