@@ -251,14 +251,14 @@ class FrameTerms:
             self.to_local[index],
         )
 
-    def in_frame(self, vector: np.ndarray) -> np.ndarray:
-        """f64 (k,3): the world ``vector`` (3,) in the frame at each iteration's end,
+    def in_frame(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
+        """(k,3) in ``dtype``: the world ``vector`` (3,) in the frame at each iteration's end,
         ``to_local @ vector``; from the frame motion computed ahead when the terms come from
         one (one product for all its frames while the vector stays: the same bits, row by row)."""
         if self.ahead is not None:
             ahead, rows = self.ahead
-            return ahead.in_frame(vector)[rows]
-        return self.to_local @ vector
+            return ahead.in_frame(vector, dtype)[rows]
+        return np.ascontiguousarray(self.to_local @ vector, dtype)
 
 
 def pose_pairs(rotations: np.ndarray, translations: np.ndarray) -> np.ndarray:
@@ -425,12 +425,13 @@ class FrameMotionAhead:
             self.pose_pairs[j + 1 : j + 1 + k], (self, rows),
         )
 
-    def in_frame(self, vector: np.ndarray) -> np.ndarray:
-        """f64 (n-2,3): ``vector`` (3,) in the frame at the end of each of the chain's
-        iterations (R^T v), for the last vector asked for (a still or steady wind: every frame)."""
-        key = np.asarray(vector, np.float64).tobytes()
+    def in_frame(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
+        """(n-2,3) in ``dtype``: ``vector`` (3,) in the frame at the end of each of the chain's
+        iterations (R^T v), for the last vector and dtype asked for (a still or steady wind:
+        every frame; converted once, element by element: the bits of converting a frame's rows)."""
+        key = (np.asarray(vector, np.float64).tobytes(), np.dtype(dtype))
         if self._in_frame[0] != key:
-            self._in_frame = (key, self.motion[5] @ vector)
+            self._in_frame = (key, np.ascontiguousarray(self.motion[5] @ vector, dtype))
         return self._in_frame[1]
 
     def _scaled_rows(self, scales, dtype, j: int, k: int):

@@ -61,7 +61,7 @@ class WindStage(Stage):
             self.air = stacked(np.broadcast_to(self.wind_world, (plan.iterations, 3)), np.float32)
         else:
             self.matrix, self.offset = terms.motion_matrix, terms.motion_offset
-            self.air = stacked(terms.in_frame(self.wind_world), np.float32)
+            self.air = terms.in_frame(self.wind_world, np.float32)  # contiguous rows, as stacked() gives
 
     def warm_up(self) -> None:
         solver = self.solver

@@ -175,6 +175,9 @@ def test_frame_motion_ahead_gives_the_bits_of_advance_many(dtype):
         wind = np.array([3.0, -0.7, 1.3]) * (frame + 1)
         assert got.ahead is not None and expected.ahead is None
         assert got.in_frame(wind).tobytes() == expected.in_frame(wind).tobytes()
+        for air in (got.in_frame(wind, np.float32), expected.in_frame(wind, np.float32)):
+            assert air.dtype == np.float32 and air.flags.c_contiguous
+            assert air.tobytes() == (expected.to_local @ wind).astype(np.float32).tobytes()
         assert len(got.poses) == k + 1 and got.poses[0] is history.now  # the chain's own poses ...
         for p, q in zip(got.poses, expected.poses):  # ... at the targets' times
             assert np.array_equal(p.rotation, q.rotation) and np.array_equal(p.translation, q.translation)
