@@ -11,10 +11,10 @@ from clothtool.profile import JIT_STAGE, StageProfiler
 from clothtool.settings import SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import (
+    PLANNED_CHUNK,
     FrameHistory,
     FrameInertia,
     FrameMotionAhead,
-    PLANNED_CHUNK,
     FramePath,
     FrameTerms,
     Pose,

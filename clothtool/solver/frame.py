@@ -102,8 +102,8 @@ class PoseRows(Sequence):
 
     def known(self) -> dict[int, Pose]:
         """The rows whose Pose objects exist, by row."""
-        poses, start = self._poses, self._start
-        return {row: poses[start + row] for row in range(len(self)) if poses[start + row] is not None}
+        rows = self._poses[self._start : self._start + len(self)]
+        return {row: pose for row, pose in enumerate(rows) if pose is not None}
 
 
 # Planned times sampled together: a long bake's poses are not all held at once.
