@@ -25,7 +25,7 @@ from clothtool.scene.scene import Scene
 from clothtool.scene.tracks import quat_to_matrices
 from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
 from clothtool.solver.environment import AIR_DENSITY, Environment
-from clothtool.solver.frame import FramePath, Pose
+from clothtool.solver.frame import FramePath, PoseRows
 from clothtool.solver.groupmeter import make_meters
 from clothtool.solver.iteration import FramePlan
 from clothtool.solver.kernels.rows import gather_xyz
@@ -156,9 +156,9 @@ def _track_path(track, planned=()) -> FramePath:
     """The cloth frame that follows ``track``, sampled many times at once; ``planned``: the
     times the bake will ask for (``_track_times``), all sampled in one call."""
 
-    def poses(times: np.ndarray) -> list[Pose]:
-        translations, rotations, _ = track.sample_many(times)
-        return [Pose(m, t) for m, t in zip(quat_to_matrices(rotations), translations)]
+    def poses(times: np.ndarray) -> PoseRows:
+        translations, rotations, _ = track.sample_many(times, scales=False)  # a cloth's frame is rigid
+        return PoseRows(quat_to_matrices(rotations), translations)
 
     return FramePath(lambda time: poses(np.array([time]))[0], poses, planned)
 
@@ -172,12 +172,14 @@ def _track_times(scene: Scene) -> list[float]:
     iterations = FramePlan.iterations_for(frame_dt, scene.solver.frequency)
     first = scene.start_frame - scene.preroll + 1
     start = scene.frame_time(first - 1)
-    times = [start - frame_dt / iterations, start]
-    for frame in range(first, scene.end_frame + 1):
-        plan = FramePlan(frame, scene.frame_time(frame - 1), frame_dt, iterations, frame_dt / iterations, 0.0,
-                         scene.frame_time(frame))
-        times += [plan.iteration_end(index) for index in range(iterations)]
-    return times
+    frames = range(first, scene.end_frame + 1)
+    # FramePlan.iteration_end for every frame at once: numpy's float64 operations, in the same
+    # order, give its bits; the last iteration of each frame ends on the frame's time
+    ends = np.empty((len(frames), iterations))
+    ends[:] = np.array([scene.frame_time(frame - 1) for frame in frames])[:, None]
+    ends[:, :-1] += frame_dt * np.arange(1, iterations) / iterations
+    ends[:, -1] = [scene.frame_time(frame) for frame in frames]
+    return [start - frame_dt / iterations, start] + ends.ravel().tolist()
 
 
 def rest_time(scene: Scene) -> float:

@@ -22,7 +22,7 @@ import numpy as np
 from clothtool.collision.colliders import ColliderArrays, ColliderInfo
 from clothtool.errors import ClothtoolError, SceneError
 from clothtool.inputs import note_input
-from clothtool.scene.tracks import Track, quat_to_matrices
+from clothtool.scene.tracks import Track, quat_to_matrices, sample_tracks
 
 KINDS = ("sphere", "capsule", "plane", "convex", "mesh")
 COMMON_KEYS = ("kind", "track", "thickness", "friction")
@@ -201,16 +201,24 @@ def _f32(values, shape) -> np.ndarray:
     return np.asarray(values, np.float32).reshape(shape)
 
 
-def _matrices(collider: Collider, times: np.ndarray, prefetch_track: bool) -> np.ndarray:
-    """(T,4,4) local -> world matrices at ``times``, each as ``collider.matrix`` gives it."""
-    m = np.zeros((times.shape[0], 4, 4))
-    m[:] = np.eye(4)
-    if collider.track is not None:
-        track = collider.track
-        translations, rotations, scales = track.prefetch(times) if prefetch_track else track.sample_many(times)
+def _track_matrices(colliders: tuple[Collider, ...], times: np.ndarray, prefetch_tracks: bool) -> dict[int, np.ndarray]:
+    """(T,4,4) local -> world matrices at ``times`` of each of the colliders' tracks (by the
+    track's id; None's: the identity), each as ``collider.matrix`` gives it. The tracks are
+    sampled together (sample_tracks) and, with ``prefetch_tracks``, keep their samples."""
+    tracks = list({id(c.track): c.track for c in colliders if c.track is not None}.values())
+    matrices = {}
+    for track, (translations, rotations, scales) in zip(tracks, sample_tracks(tracks, times)):
+        if prefetch_tracks:
+            track.prefetch(times, (translations, rotations, scales))
+        m = np.zeros((times.shape[0], 4, 4))
+        m[:] = np.eye(4)
         m[:, :3, :3] = quat_to_matrices(rotations) * scales[:, None, :]
         m[:, :3, 3] = translations
-    return m
+        matrices[id(track)] = m
+    identity = np.zeros((times.shape[0], 4, 4))
+    identity[:] = np.eye(4)
+    matrices[id(None)] = identity
+    return matrices
 
 
 class _ColliderSamples:
@@ -225,7 +233,7 @@ class _ColliderSamples:
         self.times = times
         self.rows = {float(t): row for row, t in enumerate(times)}
         count = times.shape[0]
-        tracks: dict[int, np.ndarray] = {}  # colliders sharing a track share its matrices
+        tracks = _track_matrices(colliders, times, prefetch_tracks)  # colliders sharing a track share its matrices
         centers, radii, s_margin, s_friction, s_collider = [], [], [], [], []
         capsules, c_margin, c_friction = [], [], []
         planes, offsets, v_margin, v_friction = [], [0], [], []
@@ -233,10 +241,7 @@ class _ColliderSamples:
         triangles, tri_mesh, m_margin, m_friction = [], [], [], []
         point_count = 0
         for collider in colliders:
-            key = id(collider.track)
-            if key not in tracks:
-                tracks[key] = _matrices(collider, times, prefetch_tracks)
-            m = tracks[key]
+            m = tracks[id(collider.track)]
             linear, translation = m[:, :3, :3], m[:, :3, 3]
             if collider.kind in ("sphere", "capsule"):
                 scale = np.cbrt(np.abs(np.linalg.det(linear)))

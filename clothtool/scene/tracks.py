@@ -239,68 +239,161 @@ class Track:
                 del recent[next(iter(recent))]
         return sample
 
-    def prefetch(self, times) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def prefetch(self, times, samples=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Sample all of ``times`` now, in one vectorised call (a bake's frame times): later
-        ``sample`` calls at these times find them. Returns ``sample_many(times)``."""
+        ``sample`` calls at these times find them. Returns ``sample_many(times)``, or keeps
+        ``samples`` when given (what ``sample_many(times)`` gives, e.g. from sample_tracks)."""
         times = np.asarray(times, np.float64)
-        samples = self.sample_many(times)
+        samples = self.sample_many(times) if samples is None else samples
         self.__dict__["_prefetched"] = ({float(t): row for row, t in enumerate(times)}, samples)
         return samples
 
-    def sample_many(self, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def sample_many(self, times: np.ndarray, scales: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Translations (m,3), unit quaternions (m,4) and scales (m,3) at (m,) ``times``
-        in seconds, all at once (a frame's iterations sample the track together)."""
+        in seconds, all at once (a frame's iterations sample the track together). Without
+        ``scales`` the scales are not interpolated (None): a cloth's moving frame is rigid."""
         times = np.asarray(times, np.float64)
         k = self.times.shape[0]
         if k == 1:
             m = times.shape[0]
-            return (np.repeat(self.translations, m, 0), np.repeat(self.rotations, m, 0), np.repeat(self.scales, m, 0))
+            return (np.repeat(self.translations, m, 0), np.repeat(self.rotations, m, 0),
+                    np.repeat(self.scales, m, 0) if scales else None)
         i = np.clip(np.searchsorted(self.times, times, side="right") - 1, 0, k - 2)
         u = np.clip((times - self.times[i]) / (self.times[i + 1] - self.times[i]), 0.0, 1.0)
         if self.interpolation == "step":
             i = np.where(u >= 1.0, i + 1, i)  # at or past a segment's end key: that key
-            return self.translations[i], self.rotations[i], self.scales[i]
+            return self.translations[i], self.rotations[i], self.scales[i] if scales else None
         if self.interpolation == "linear" or k == 2:
             lerp = lambda a: a[i] + u[:, None] * (a[i + 1] - a[i])  # noqa: E731
-            return lerp(self.translations), slerp_many(self.rotations[i], self.rotations[i + 1], u), lerp(self.scales)
-        return self._catmull_rom(self.translations, i, u), self._spherical_cubic(i, u), self._catmull_rom(self.scales, i, u)
+            rotations = self._identities(i) if self._never_turns() else slerp_many(self.rotations[i], self.rotations[i + 1], u)
+            return lerp(self.translations), rotations, lerp(self.scales) if scales else None
+        rotations = self._identities(i) if self._never_turns() else self._spherical_cubic(i, u)
+        return self._catmull_rom(self.translations, i, u), rotations, self._catmull_rom(self.scales, i, u) if scales else None
+
+    def _never_turns(self) -> bool:
+        """True when every key's rotation is exactly the identity (1, +0, +0, +0): a track of
+        translations (and scales) alone. Slerp and the spherical cubic between identities
+        give the identity exactly (tests/unit/test_tracks_identity.py), so sampling skips
+        them: they are most of a long sample's cost (~0.5 ms for a bake's 600 iteration ends)."""
+        never = self.__dict__.get("_never")
+        if never is None:
+            identity = np.array([1.0, 0.0, 0.0, 0.0])
+            never = bool(np.array_equal(self.rotations, np.broadcast_to(identity, self.rotations.shape))
+                         and not np.signbit(self.rotations).any())
+            object.__setattr__(self, "_never", never)
+        return never
+
+    @staticmethod
+    def _identities(i: np.ndarray) -> np.ndarray:
+        rotations = np.zeros((i.shape[0], 4))
+        rotations[:, 0] = 1.0
+        return rotations
 
     def _neighbours(self, i: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return np.maximum(i - 1, 0), np.minimum(i + 2, self.times.shape[0] - 1)
 
     def _catmull_rom(self, values: np.ndarray, i: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Non-uniform Catmull-Rom (tangents from the neighbouring keys' times)."""
-        a, d = self._neighbours(i)
-        t = self.times
-        span = (t[i + 1] - t[i])[:, None]
-        m1 = (values[i + 1] - values[a]) / (t[i + 1] - t[a])[:, None] * span
-        m2 = (values[d] - values[i]) / (t[d] - t[i])[:, None] * span
-        u = u[:, None]
-        u2, u3 = u * u, u * u * u
-        return (2 * u3 - 3 * u2 + 1) * values[i] + (u3 - 2 * u2 + u) * m1 + (-2 * u3 + 3 * u2) * values[i + 1] + (u3 - u2) * m2
+        return _catmull_rom(values, self.times, i, *self._neighbours(i), u)
 
     def _spherical_cubic(self, i: np.ndarray, u: np.ndarray) -> np.ndarray:
-        """Quaternion Catmull-Rom: a spherical Bezier (de Casteljau with slerp) whose inner
-        control points sit a third of the tangent along, tangents taken in log space."""
-        controls = self._bezier_controls()
-        q1, q2, c1, c2 = self.rotations[i], self.rotations[i + 1], controls[i, 0], controls[i, 1]
-        ab, bc, cd = slerp_many(q1, c1, u), slerp_many(c1, c2, u), slerp_many(c2, q2, u)
-        result = slerp_many(slerp_many(ab, bc, u), slerp_many(bc, cd, u), u)
-        return result / np.linalg.norm(result, axis=1, keepdims=True)
+        return _spherical_cubic(self.rotations, self._bezier_controls(), i, i, u)
 
     def _bezier_controls(self) -> np.ndarray:
         """(k-1, 2, 4): each segment's inner control quaternions, computed once per track."""
         controls = self.__dict__.get("_controls")
         if controls is None:
-            q, k = self.rotations, self.times.shape[0]
-            i = np.arange(k - 1)
-            a, d = self._neighbours(i)
-            q0, q1, q2, q3 = q[a].T, q[i].T, q[i + 1].T, q[d].T  # quat_multiply takes components first
-            first = quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2).T) / 6.0)
-            second = quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3).T) / 6.0)
-            controls = np.stack([quat_multiply(q1, first.T).T, quat_multiply(q2, second.T).T], axis=1)
+            i = np.arange(self.times.shape[0] - 1)
+            controls = _bezier_controls(self.rotations, i, *self._neighbours(i))
             object.__setattr__(self, "_controls", controls)
         return controls
+
+
+def _bezier_controls(q: np.ndarray, i, a, d) -> np.ndarray:
+    """(segments, 2, 4): the inner control quaternions of the segments from key rotations i
+    to i+1 (a and d the keys before and after them), row by row."""
+    q0, q1, q2, q3 = q[a].T, q[i].T, q[i + 1].T, q[d].T  # quat_multiply takes components first
+    first = quat_exp(quat_log(quat_multiply(quat_conjugate(q0), q2).T) / 6.0)
+    second = quat_exp(-quat_log(quat_multiply(quat_conjugate(q1), q3).T) / 6.0)
+    return np.stack([quat_multiply(q1, first.T).T, quat_multiply(q2, second.T).T], axis=1)
+
+
+def _catmull_rom(values: np.ndarray, t: np.ndarray, i, a, d, u: np.ndarray) -> np.ndarray:
+    """Non-uniform Catmull-Rom (tangents from the neighbouring keys' times) of key ``values``
+    at key ``t`` seconds: each row between keys i and i+1 at parameter u, a and d the keys
+    before and after them. Row by row: a row's bits do not depend on the rows with it."""
+    span = (t[i + 1] - t[i])[:, None]
+    m1 = (values[i + 1] - values[a]) / (t[i + 1] - t[a])[:, None] * span
+    m2 = (values[d] - values[i]) / (t[d] - t[i])[:, None] * span
+    u = u[:, None]
+    u2, u3 = u * u, u * u * u
+    return (2 * u3 - 3 * u2 + 1) * values[i] + (u3 - 2 * u2 + u) * m1 + (-2 * u3 + 3 * u2) * values[i + 1] + (u3 - u2) * m2
+
+
+def _spherical_cubic(rotations: np.ndarray, controls: np.ndarray, i, c, u: np.ndarray) -> np.ndarray:
+    """Quaternion Catmull-Rom: a spherical Bezier (de Casteljau with slerp) whose inner
+    control points (``controls`` row c, Track._bezier_controls) sit a third of the tangent
+    along, tangents taken in log space; row by row, between key rotations i and i+1."""
+    q1, q2, c1, c2 = rotations[i], rotations[i + 1], controls[c, 0], controls[c, 1]
+    ab, bc, cd = slerp_many(q1, c1, u), slerp_many(c1, c2, u), slerp_many(c2, q2, u)
+    result = slerp_many(slerp_many(ab, bc, u), slerp_many(bc, cd, u), u)
+    return result / np.linalg.norm(result, axis=1, keepdims=True)
+
+
+def sample_tracks(tracks, times) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """``track.sample_many(times)`` of each of ``tracks``, with the same bits, the turning
+    cubic ones interpolated together: their keys stacked end to end, so each numpy operation
+    of the interpolation (a few microseconds whatever its length, some fifty of them) runs
+    once for all of them (a bake's animated bodies at its frame times: one pass, not one each)."""
+    times = np.asarray(times, np.float64)
+    together = [track for track in tracks
+                if track.interpolation == "cubic" and track.times.shape[0] > 2 and not track._never_turns()]
+    if len(together) < 2:
+        return [track.sample_many(times) for track in tracks]
+    rows, neighbours, segments, parameters, first_keys = [], [], [], [], []
+    keys = segments_before = 0
+    for track in together:
+        k = track.times.shape[0]
+        i = np.clip(np.searchsorted(track.times, times, side="right") - 1, 0, k - 2)
+        parameters.append(np.clip((times - track.times[i]) / (track.times[i + 1] - track.times[i]), 0.0, 1.0))
+        a, d = track._neighbours(i)
+        rows.append(i + keys)
+        neighbours.append((a + keys, d + keys))
+        segments.append(i + segments_before)  # the track's control rows follow the previous tracks'
+        first_keys.append(keys)
+        keys += k
+        segments_before += k - 1
+    i, u, c = np.concatenate(rows), np.concatenate(parameters), np.concatenate(segments)
+    a, d = np.concatenate([n[0] for n in neighbours]), np.concatenate([n[1] for n in neighbours])
+    t = np.concatenate([track.times for track in together])
+    key_rotations = np.concatenate([track.rotations for track in together])
+    translations = _catmull_rom(np.concatenate([track.translations for track in together]), t, i, a, d, u)
+    scales = _catmull_rom(np.concatenate([track.scales for track in together]), t, i, a, d, u)
+    rotations = _spherical_cubic(key_rotations, _controls_of(together, key_rotations, first_keys), i, c, u)
+    m = times.shape[0]
+    sampled = {id(track): (translations[n * m:(n + 1) * m], rotations[n * m:(n + 1) * m], scales[n * m:(n + 1) * m])
+               for n, track in enumerate(together)}
+    return [sampled[id(track)] if id(track) in sampled else track.sample_many(times) for track in tracks]
+
+
+def _controls_of(tracks, key_rotations: np.ndarray, first_keys: list[int]) -> np.ndarray:
+    """The tracks' Bezier controls stacked (Track._bezier_controls), those not yet computed
+    computed together from ``key_rotations`` (the tracks' key rotations stacked, track n's
+    from row first_keys[n]) and kept on their tracks."""
+    missing = [n for n, track in enumerate(tracks) if "_controls" not in track.__dict__]
+    if len(missing) > 1:
+        rows, before, after = [], [], []
+        for n in missing:
+            segment = np.arange(tracks[n].times.shape[0] - 1)
+            a, d = tracks[n]._neighbours(segment)
+            rows.append(segment + first_keys[n])
+            before.append(a + first_keys[n])
+            after.append(d + first_keys[n])
+        controls = _bezier_controls(key_rotations, np.concatenate(rows), np.concatenate(before), np.concatenate(after))
+        start = 0
+        for n, segment in zip(missing, rows):
+            object.__setattr__(tracks[n], "_controls", controls[start:start + segment.shape[0]])
+            start += segment.shape[0]
+    return np.concatenate([track._bezier_controls() for track in tracks])
 
 
 def static_track(name: str, translation=(0.0, 0.0, 0.0), rotation=(1.0, 0.0, 0.0, 0.0), scale=(1.0, 1.0, 1.0)) -> Track:

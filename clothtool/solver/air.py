@@ -31,9 +31,9 @@ def corner_shares(model) -> np.ndarray:
     tri = model.triangles
     pos = model.rest_pos.astype(np.float64)
     area = 0.5 * np.linalg.norm(np.cross(pos[tri[:, 1]] - pos[tri[:, 0]], pos[tri[:, 2]] - pos[tri[:, 0]]), axis=1)
-    around = np.zeros(n)
-    for corner in range(3):
-        np.add.at(around, tri[:, corner], area)
+    # each particle's triangles' areas summed in the order np.add.at would add them corner by
+    # corner (bincount adds its weights in order too: the same bits, a tenth of the time)
+    around = np.bincount(tri.T.ravel(), np.tile(area, 3), minlength=n)[:n]
     lumped = model.mass / model.mass.sum() if n and model.mass.sum() > 0 else np.zeros(n)
     share = np.divide(lumped * around.sum(), around, out=np.zeros(n), where=around > 0)
     # a triangle mesh's shares are 1 up to rounding: make them exactly the thirds

@@ -11,12 +11,14 @@ from clothtool.profile import JIT_STAGE, StageProfiler
 from clothtool.settings import SolverConfig
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import (
+    PLANNED_CHUNK,
     FrameHistory,
     FrameInertia,
     FrameMotionAhead,
     FramePath,
     FrameTerms,
     Pose,
+    PoseRows,
     extrapolated_path,
 )
 from clothtool.solver.framefn import FusedFrame, compile_for
@@ -28,7 +30,6 @@ from clothtool.solver.pipeline import build_stages
 from clothtool.solver.sleep import SleepState
 
 FRAME_STAGE = "frame"  # the profile's name for a frame's iterations run in one compiled call
-AHEAD_FRAMES = 32  # frames of a track's frame motion computed together (FrameMotionAhead)
 
 
 # Particle rows start on a cache line: a float64 row is 32 bytes, and numpy places a big
@@ -152,14 +153,13 @@ class ClothSolver:
         self.frame_scales = self._scales(plan)
         self.frame_terms = None
         if self.track is not None:
-            ends = [plan.iteration_end(index) for index in range(plan.iterations)]
-            terms = None
-            if self._teleport_path:
-                targets = [self._teleport_path(t) for t in ends]
-            else:
-                targets = self.track.poses(ends)
-                terms = self._terms_ahead(plan, ends, targets)
+            ends = plan.iteration_ends()
+            terms = None if self._teleport_path else self._terms_ahead(plan, ends)
             if terms is None:
+                if self._teleport_path:
+                    targets = [self._teleport_path(t) for t in ends]
+                else:
+                    targets = self.track.poses(ends)
                 terms = self.history.advance_many(
                     targets, self.frame_scales, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency,
                     self.state.cur.dtype,
@@ -170,21 +170,27 @@ class ClothSolver:
             stage.begin_frame(plan)
         return plan
 
-    def _terms_ahead(self, plan: FramePlan, ends: list[float], targets: list[Pose]) -> FrameTerms | None:
-        """The frame's terms from the frame motion computed ahead, AHEAD_FRAMES frames of the
-        track's planned poses at a time (the same bits as advance_many); None when the frame
-        is not on the planned path (advance_many then computes them)."""
+    def _terms_ahead(self, plan: FramePlan, ends: list[float]) -> FrameTerms | None:
+        """The frame's terms from the frame motion computed ahead over all the track's planned
+        poses held (a bake's whole path, up to PLANNED_CHUNK iterations: one vectorised pass;
+        the same bits as advance_many); None when the frame is not on the planned path
+        (advance_many then computes them)."""
         dtype = self.state.cur.dtype
         ahead = self._ahead
-        terms = None if ahead is None else ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+        terms = None if ahead is None else ahead.terms(self.history, ends, self.frame_scales, plan.h, dtype)
         if terms is None:
-            following = self.track.following(ends[0], AHEAD_FRAMES * len(ends))
-            if len(following) > len(targets):
-                chain = [self.history.before, self.history.now] + following
-                self._ahead = ahead = FrameMotionAhead(
-                    chain, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency
+            following, times = self.track.following_rows(ends[0], PLANNED_CHUNK)
+            if len(following) > len(ends):
+                before, now = self.history.before, self.history.now
+                chain = PoseRows(
+                    np.concatenate([before.rotation[None], now.rotation[None], following.rotations]),
+                    np.concatenate([before.translation[None], now.translation[None], following.translations]),
+                    {0: before, 1: now},
                 )
-                terms = ahead.terms(self.history, targets, self.frame_scales, plan.h, dtype)
+                self._ahead = ahead = FrameMotionAhead(
+                    chain, times, self.gravity, plan.h, self.inertia, self.config.stiffness_frequency
+                )
+                terms = ahead.terms(self.history, ends, self.frame_scales, plan.h, dtype)
         return terms
 
     def _teleport(self, plan: FramePlan) -> None:

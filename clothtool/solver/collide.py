@@ -83,6 +83,19 @@ def _names_in(lines: tuple[str, ...]) -> frozenset[str]:
     return frozenset(re.findall(r"\{(\w+)\}", "\n".join(lines)))
 
 
+def _in_order(kind: str, names: dict, used: frozenset[str]) -> tuple[str, ...]:
+    """The keys of ``names`` (the stage's ``kind`` of frame-function names: its values or its
+    kernels) that ``used`` holds, in the order of ``names`` (the frame function's
+    parameters); the same every frame of a scene, so worked out once per ``used``."""
+    order = _ORDERS.get((kind, used))
+    if order is None:
+        order = _ORDERS[kind, used] = tuple(name for name in names if name in used)
+    return order
+
+
+_ORDERS: dict[tuple[str, frozenset[str]], tuple[str, ...]] = {}
+
+
 @functools.lru_cache(maxsize=None)
 def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtual: bool, has_faces: bool,
                  mesh_faces: bool) -> tuple[tuple[str, ...], frozenset[str]]:
@@ -170,7 +183,7 @@ class CollideStage(Stage):
         # faces against mesh colliders' points: their contacts handle crossings themselves
         self.mesh_faces = bool(solver.config.face_collision) and faces
         self.cloth_triangles = np.ascontiguousarray(model.triangles, I32)
-        self.sample_spacing = sample_spacing(model.rest_pos, self.cloth_triangles)
+        self._sample_spacing: float | None = None  # see collider_sample_spacing
         self.owners = np.zeros((0, 4), I32)  # see clothtool.solver.meshfaces.collider_owners
         self.face_margin = real(0.0)  # the largest mesh margin
         self.face_record = np.zeros((1, 32), real)
@@ -211,10 +224,18 @@ class CollideStage(Stage):
         # per iteration of the frame (begin_frame): the cloth frame's poses at its start and
         # end (k,8,3), the collider interpolation's alphas, and whether the mesh is posed
         self.frames = np.zeros((1, 8, 3))
+        self._frames_moved = True  # self.frames came from a track's poses (not the identity)
         self.alpha0 = self.alpha1 = self.alpha_step = np.zeros(1)
         self._alpha_iterations = 0  # the iteration count the alphas are for
         self._layouts: dict[str, tuple] = {}  # see _same_layout
         self.pose_mesh = np.zeros(1, np.bool_)
+
+    def collider_sample_spacing(self) -> float:
+        """The spacing of mesh colliders' edge samples for this cloth (meshfaces.sample_spacing),
+        computed when a mesh collider first needs it: scenes without one never do."""
+        if self._sample_spacing is None:
+            self._sample_spacing = sample_spacing(self.solver.model.rest_pos, self.cloth_triangles)
+        return self._sample_spacing
 
     # ------------------------------------------------------------------ per frame
     def begin_frame(self, plan: FramePlan) -> None:
@@ -238,16 +259,13 @@ class CollideStage(Stage):
             self.alpha0 = stacked([index / k for index in range(k)], np.float64)
             self.alpha1 = stacked([(index + 1) / k for index in range(k)], np.float64)
             self.alpha_step = self.alpha1 - self.alpha0
-        frames = np.zeros((k, 8, 3))
         terms = self.solver.frame_terms
         if terms is not None:
-            frames[:, 0:3] = terms.rotations[:-1]
-            frames[:, 3] = terms.translations[:-1]
-            frames[:, 4:7] = terms.rotations[1:]
-            frames[:, 7] = terms.translations[1:]
-        else:
-            frames[:, 0:3] = frames[:, 4:7] = np.eye(3)
-        self.frames = frames
+            self.frames = terms.pose_pairs  # the cloth frame's poses at each iteration's start and end
+        elif self.frames.shape[0] != k or self._frames_moved:
+            self.frames = np.zeros((k, 8, 3))  # no track: the identity, the same every frame
+            self.frames[:, 0:3] = self.frames[:, 4:7] = np.eye(3)
+        self._frames_moved = terms is not None
         # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
         self.pose_mesh = np.zeros(k, np.bool_)
         if self.mesh_world[0].shape[0]:
@@ -393,7 +411,7 @@ class CollideStage(Stage):
         self.cell_items = _at_least(self.cell_items, entries)
         grid_fill(self.cell_ranges, self.grid, self.cell_start, self.cell_items)
         if self.mesh_faces:
-            self.owners = collider_owners(self.triangles, worlds[0], self.sample_spacing)
+            self.owners = collider_owners(self.triangles, worlds[0], self.collider_sample_spacing())
             self.face_margin = self.real(params[:, 0].max())
 
     # ------------------------------------------------------------------ per iteration
@@ -431,34 +449,36 @@ class CollideStage(Stage):
             self.mesh_world[0].shape[0] > 0, self.plane_end.shape[0] > 0, self.convex_data.shape[0] > 0,
             self.virtual.shape[0] > 0, self.faces.shape[0] > 0, self.mesh_faces and self.triangle_data.shape[0] > 0,
         )
-        args = {name: value for name, value in self._fused_values() if name in used}
+        values = self._fused_values()
+        args = {name: values[name] for name in _in_order("values", values, used)}
         kernels = {
             "pose_spheres": pose_spheres, "pose_points": pose_points, "pose_planes": pose_planes,
             "pack_spheres": pack_spheres, "pack_capsules": pack_capsules, "convex_shift": convex_shift,
             "pack_triangles": pack_triangles, "collide": self.kernel, "collide_virtual": self.virtual_kernel,
             "collide_mesh_faces": collide_mesh_faces, "collide_faces": collide_faces,
         }
-        return FusedCall(lines, args, {name: k for name, k in kernels.items() if name in used})
+        return FusedCall(lines, args, {name: kernels[name] for name in _in_order("kernels", kernels, used)})
 
-    def _fused_values(self):
-        """(name, value) of every array and scalar the frame function's lines may name."""
-        return (
-            ("frames", self.frames), ("alpha0", self.alpha0), ("alpha1", self.alpha1), ("alpha_step", self.alpha_step),
-            ("pose_mesh", self.pose_mesh), ("sphere_world0", self.sphere_world[0]), ("sphere_world1", self.sphere_world[1]),
-            ("sphere_start", self.sphere_start), ("sphere_end", self.sphere_end), ("mesh_world0", self.mesh_world[0]),
-            ("mesh_world1", self.mesh_world[1]), ("mesh_start", self.mesh_start), ("mesh_end", self.mesh_end),
-            ("plane_world0", self.plane_world[0]), ("plane_world1", self.plane_world[1]), ("plane_end", self.plane_end),
-            ("sphere_colliders", self.sphere_colliders), ("sphere_params", self.sphere_params),
-            ("sphere_data", self.sphere_data), ("capsule_index", self.capsule_index),
-            ("capsule_params", self.capsule_params), ("capsule_data", self.capsule_data),
-            ("convex_translation", self.convex_translation), ("convex_offsets", self.convex_offsets),
-            ("convex_data", self.convex_data), ("triangles", self.triangles), ("triangle_params", self.triangle_params),
-            ("triangle_data", self.triangle_data), ("cell_start", self.cell_start), ("cell_items", self.cell_items),
-            ("cell_ranges", self.cell_ranges), ("grid", self.grid), ("continuous", self.continuous),
-            ("mass_scale", self.mass_scale), ("meters_per_unit", self.meters_per_unit), ("virtual", self.virtual),
-            ("virtual_weights", self.virtual_weights), ("cloth_triangles", self.cloth_triangles), ("owners", self.owners),
-            ("face_margin", self.face_margin), ("face_record", self.face_record), ("faces", self.faces),
-        )
+    def _fused_values(self) -> dict:
+        """Every array and scalar the frame function's lines may name, by name, in the order of
+        the frame function's parameters."""
+        return {
+            "frames": self.frames, "alpha0": self.alpha0, "alpha1": self.alpha1, "alpha_step": self.alpha_step,
+            "pose_mesh": self.pose_mesh, "sphere_world0": self.sphere_world[0], "sphere_world1": self.sphere_world[1],
+            "sphere_start": self.sphere_start, "sphere_end": self.sphere_end, "mesh_world0": self.mesh_world[0],
+            "mesh_world1": self.mesh_world[1], "mesh_start": self.mesh_start, "mesh_end": self.mesh_end,
+            "plane_world0": self.plane_world[0], "plane_world1": self.plane_world[1], "plane_end": self.plane_end,
+            "sphere_colliders": self.sphere_colliders, "sphere_params": self.sphere_params,
+            "sphere_data": self.sphere_data, "capsule_index": self.capsule_index,
+            "capsule_params": self.capsule_params, "capsule_data": self.capsule_data,
+            "convex_translation": self.convex_translation, "convex_offsets": self.convex_offsets,
+            "convex_data": self.convex_data, "triangles": self.triangles, "triangle_params": self.triangle_params,
+            "triangle_data": self.triangle_data, "cell_start": self.cell_start, "cell_items": self.cell_items,
+            "cell_ranges": self.cell_ranges, "grid": self.grid, "continuous": self.continuous,
+            "mass_scale": self.mass_scale, "meters_per_unit": self.meters_per_unit, "virtual": self.virtual,
+            "virtual_weights": self.virtual_weights, "cloth_triangles": self.cloth_triangles, "owners": self.owners,
+            "face_margin": self.face_margin, "face_record": self.face_record, "faces": self.faces,
+        }
 
     def end_fused_frame(self) -> None:
         self.frame = self.frames[-1]

@@ -90,6 +90,7 @@ class FabricStage(Stage):
             self.kernel = solve_phases_parallel if big else solve_phases
             self.per_constraint = model.constraint_stiffness
         self.params_h = None  # the iteration length the parameters were converted for
+        self._fused: FusedCall | None = None  # see fused_call
 
     def begin_frame(self, plan: FramePlan) -> None:
         # Frames of one bake usually share their iteration length: convert only when it changes.
@@ -126,4 +127,8 @@ class FabricStage(Stage):
         self.kernel(*self._arguments(), self.solver.state.cur)
 
     def fused_call(self) -> FusedCall:
-        return FusedCall(_FUSED_LINES, dict(zip(_FUSED_NAMES, self._arguments())), {"fabric": self.kernel})
+        # the same arrays every frame (begin_frame converts the parameters in place): built once
+        fused = self._fused
+        if fused is None or fused.kernels["fabric"] is not self.kernel:
+            fused = self._fused = FusedCall(_FUSED_LINES, dict(zip(_FUSED_NAMES, self._arguments())), {"fabric": self.kernel})
+        return fused

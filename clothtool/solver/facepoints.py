@@ -16,11 +16,20 @@ from __future__ import annotations
 import numpy as np
 
 
+def _lengths(v: np.ndarray) -> np.ndarray:
+    """Lengths of the vectors whose x, y, z are the rows of (3,t) ``v``, summed x, y, z in
+    turn as np.linalg.norm(axis=-1) sums them (the same bits, without its strided overhead)."""
+    return np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
 def _circumradius(corners: np.ndarray) -> np.ndarray:
-    a = np.linalg.norm(corners[:, 1] - corners[:, 2], axis=-1)
-    b = np.linalg.norm(corners[:, 2] - corners[:, 0], axis=-1)
-    c = np.linalg.norm(corners[:, 0] - corners[:, 1], axis=-1)
-    twice_area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=-1)
+    """(t,) circumradius of (t,3,3) triangle ``corners`` (its longest edge when degenerate)."""
+    p = np.ascontiguousarray(np.moveaxis(corners, 0, -1))  # (corner, axis, triangle): contiguous rows
+    u, w = p[1] - p[0], p[2] - p[0]
+    a = _lengths(p[1] - p[2])
+    b = _lengths(w)
+    c = _lengths(u)  # |c0 - c1|: negating a vector is exact
+    twice_area = _lengths(np.stack([u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]]))
     return np.where(twice_area > 0, a * b * c / np.maximum(2.0 * twice_area, 1e-300), np.maximum(np.maximum(a, b), c))
 
 

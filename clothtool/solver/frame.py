@@ -27,6 +27,7 @@ stiffness-frequency step and converted in log space like damping.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from typing import Callable
 
 import numpy as np
@@ -50,6 +51,59 @@ class Pose:
 
     def to_local(self, points: np.ndarray) -> np.ndarray:
         return (points - self.translation) @ self.rotation
+
+
+class PoseRows(Sequence):
+    """Poses sampled together: the rows of stacked (n,3,3) ``rotations`` and (n,3)
+    ``translations``. A row's Pose is made when first asked for and then kept, the same
+    object each time (callers tell poses apart by identity): a bake plans hundreds of
+    iteration ends at once, but its frames ask for two poses each (~0.4 ms a bake to make
+    them all up front). ``known``: rows' Pose objects that exist already. A slice is a
+    PoseRows of the same Poses (made or not yet)."""
+
+    def __init__(self, rotations: np.ndarray, translations: np.ndarray, known: dict[int, Pose] | None = None):
+        self.rotations = rotations
+        self.translations = translations
+        self._poses: list[Pose | None] = [None] * rotations.shape[0]  # shared by slices
+        self._start = 0  # this one's first row in _poses
+        for row, pose in (known or {}).items():
+            self._poses[row] = pose
+
+    @classmethod
+    def of(cls, poses) -> "PoseRows":
+        """The PoseRows of ``poses`` (a PoseRows, or Pose objects, which it keeps)."""
+        if isinstance(poses, PoseRows):
+            return poses
+        poses = list(poses)
+        if not poses:
+            return cls(np.zeros((0, 3, 3)), np.zeros((0, 3)))
+        return cls(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]), dict(enumerate(poses)))
+
+    def __len__(self) -> int:
+        return self.rotations.shape[0]
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            start, stop, step = index.indices(len(self))
+            if step != 1:
+                return [self[i] for i in range(start, stop, step)]
+            rows = PoseRows.__new__(PoseRows)
+            rows.rotations, rows.translations = self.rotations[start:stop], self.translations[start:stop]
+            rows._poses, rows._start = self._poses, self._start + start
+            return rows
+        if index < 0:
+            index += len(self)
+        if not 0 <= index < len(self):
+            raise IndexError("pose row out of range")
+        pose = self._poses[self._start + index]
+        if pose is None:
+            pose = self._poses[self._start + index] = Pose(self.rotations[index], self.translations[index])
+        return pose
+
+    def known(self) -> dict[int, Pose]:
+        """The rows whose Pose objects exist, by row."""
+        rows = self._poses[self._start : self._start + len(self)]
+        return {row: pose for row, pose in enumerate(rows) if pose is not None}
 
 
 # Planned times sampled together: a long bake's poses are not all held at once.
@@ -76,7 +130,7 @@ class FramePath:
         self._many = many
         self._planned = np.unique(np.asarray(planned, np.float64))  # sorted
         self._start = 0  # the index in _planned of the first held pose
-        self._held: list[Pose] = []  # the poses of _planned[_start:_start + len(_held)]
+        self._held = PoseRows.of([])  # the poses of _planned[_start:_start + len(_held)]
         self._row: dict[float, int] = {}  # time -> its pose's row in _held
 
     def __call__(self, time: float) -> Pose:
@@ -85,17 +139,25 @@ class FramePath:
 
     def poses(self, times) -> list[Pose]:
         if len(times) and self._hold(times[0], len(times)) is not None:
-            rows = [self._row.get(t) for t in times]
+            rows = list(map(self._row.get, times))
             if None not in rows:
-                held = self._held
-                return [held[row] for row in rows if row is not None]
+                return list(map(self._held.__getitem__, rows))  # type: ignore[arg-type]
         return self._sample(times)
 
     def following(self, time: float, count: int) -> list[Pose]:
         """Up to ``count`` planned poses from the one at ``time`` on (fewer at the end of the
         planned times), the objects ``poses`` gives; [] when ``time`` is not planned."""
+        return list(self.following_rows(time, count)[0])
+
+    def following_rows(self, time: float, count: int) -> tuple[PoseRows, list[float]]:
+        """``following(time, count)`` as PoseRows (its poses made when asked for: the same
+        objects as ``poses`` gives), and their times; empty when ``time`` is not planned."""
         row = self._hold(time, count)
-        return [] if row is None else self._held[row : row + count]
+        if row is None:
+            return PoseRows.of([]), []
+        first = self._start + row
+        rows = self._held[row : row + count]
+        return rows, self._planned[first : first + len(rows)].tolist()
 
     def _sample(self, times) -> list[Pose]:
         if self._many is not None:
@@ -116,8 +178,15 @@ class FramePath:
             if first >= planned.shape[0] or planned[first] != time:
                 return None
         end = min(first + max(PLANNED_CHUNK, count), planned.shape[0])
-        kept = self._held[row:] if row is not None else []
-        self._held = kept + self._sample(planned[first + len(kept) : end])
+        kept = self._held[row:] if row is not None else PoseRows.of([])
+        sampled = PoseRows.of(self._sample(planned[first + len(kept) : end]))
+        if len(kept) == 0:
+            self._held = sampled
+        else:  # the poses already made stay the same objects
+            known = kept.known()
+            known.update({len(kept) + r: pose for r, pose in sampled.known().items()})
+            self._held = PoseRows(np.concatenate([kept.rotations, sampled.rotations]),
+                                  np.concatenate([kept.translations, sampled.translations]), known)
         self._start = first
         self._row = dict(zip(planned[first:end].tolist(), range(end - first)))
         return 0
@@ -169,15 +238,39 @@ class FrameTerms:
     motion_matrix: np.ndarray  # f32 (k,3,3)
     motion_offset: np.ndarray  # f32 (k,3)
     to_local: np.ndarray  # f64 (k,3,3)
-    poses: list[Pose]  # k + 1 poses
+    poses: Sequence[Pose]  # k + 1 poses
     rotations: np.ndarray  # f64 (k+1,3,3): the poses' rotations, stacked
     translations: np.ndarray  # f64 (k+1,3): ... and translations
+    pose_pairs: np.ndarray  # f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)
+    # the frame motion computed ahead these rows come from (FrameMotionAhead, its rows), or None
+    ahead: tuple | None = None
 
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
             self.m_cur[index], self.m_prev[index], self.bias[index], self.motion_matrix[index], self.motion_offset[index],
             self.to_local[index],
         )
+
+    def in_frame(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
+        """(k,3) in ``dtype``: the world ``vector`` (3,) in the frame at each iteration's end,
+        ``to_local @ vector``; from the frame motion computed ahead when the terms come from
+        one (one product for all its frames while the vector stays: the same bits, row by row)."""
+        if self.ahead is not None:
+            ahead, rows = self.ahead
+            return ahead.in_frame(vector, dtype)[rows]
+        return np.ascontiguousarray(self.to_local @ vector, dtype)
+
+
+def pose_pairs(rotations: np.ndarray, translations: np.ndarray) -> np.ndarray:
+    """f64 (n-1,8,3) of n poses' (n,3,3) ``rotations`` and (n,3) ``translations``: row i is
+    pose i (rotation rows 0-2, translation row 3) and pose i+1 (rows 4-7), the cloth frame at
+    an iteration's start and end as the collide stage poses the colliders with it."""
+    pairs = np.empty((max(rotations.shape[0] - 1, 0), 8, 3))
+    pairs[:, 0:3] = rotations[:-1]
+    pairs[:, 3] = translations[:-1]
+    pairs[:, 4:7] = rotations[1:]
+    pairs[:, 7] = translations[1:]
+    return pairs
 
 
 class FrameHistory:
@@ -251,9 +344,12 @@ def _scaled(motion: tuple, scales, dtype) -> tuple[np.ndarray, np.ndarray, np.nd
     )
 
 
-def _frame_terms(motion: tuple, scales, dtype, poses: list[Pose], rotations, translations, scaled=None) -> FrameTerms:
+def _frame_terms(
+    motion: tuple, scales, dtype, poses: Sequence[Pose], rotations, translations, scaled=None, pairs=None, ahead=None
+) -> FrameTerms:
     """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales
-    (``scaled``: their ``_scaled`` arrays when already computed)."""
+    (``scaled``: their ``_scaled`` arrays, ``pairs``: the poses' ``pose_pairs``, when already
+    computed; ``ahead``: the FrameMotionAhead and rows they come from)."""
     m_cur, m_prev, bias = _scaled(motion, scales, dtype) if scaled is None else scaled
     motion_matrix, motion_offset, inv = motion[3:]
     return FrameTerms(
@@ -266,41 +362,77 @@ def _frame_terms(motion: tuple, scales, dtype, poses: list[Pose], rotations, tra
         poses=poses,
         rotations=rotations,
         translations=translations,
+        pose_pairs=pose_pairs(rotations, translations) if pairs is None else pairs,
+        ahead=ahead,
     )
 
 
 class FrameMotionAhead:
-    """The frame motion of many iterations computed at once: ``chain`` is the pose history
-    (P_{n-1}, P_n) followed by the poses at the ends of the next iterations, frames of them
-    (a track's planned poses). ``terms`` gives a frame's terms from these arrays when its
-    history and targets are the chain's very Pose objects, at the same ``h``: the same bits
-    as ``FrameHistory.advance_many``, which computes the same rows one frame at a time."""
+    """The frame motion of many iterations computed at once: ``chain`` (PoseRows) is the pose
+    history (P_{n-1}, P_n) followed by the poses at the ends of the next iterations, frames of
+    them (a track's planned poses), and ``times`` the seconds of those ends. ``terms`` gives a
+    frame's terms from these arrays when its history is the chain's very Pose objects where
+    the last frame left it and its iterations end at the chain's next times, at the same
+    ``h``: the same bits as ``FrameHistory.advance_many``, which computes the same rows one
+    frame at a time."""
 
-    def __init__(self, chain: list[Pose], gravity, h: float, inertia: FrameInertia, stiffness_frequency: float):
+    def __init__(
+        self, chain: PoseRows, times: list[float], gravity, h: float, inertia: FrameInertia, stiffness_frequency: float
+    ):
         self.chain = chain
+        self.times = times
         self.h = h
-        self._position = {id(pose): index for index, pose in enumerate(chain)}
-        self.rotations = np.stack([pose.rotation for pose in chain])
-        self.translations = np.stack([pose.translation for pose in chain])
+        self._row = 0  # the chain row of the next frame's P_{n-1}
+        self.rotations = chain.rotations
+        self.translations = chain.translations
         self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
+        self.pose_pairs = pose_pairs(self.rotations, self.translations)
         self._scaled: dict[tuple, tuple] = {}  # (scales, dtype) -> the chain's _scaled arrays
+        self._last_scaled: tuple = (None, None, None)  # (scales object, dtype, its _scaled arrays)
+        self._in_frame: tuple = (None, None)  # (vector bytes, the chain's to_local @ vector)
+        self._made: tuple = (None, None, {})  # (scales, dtype, {row: FrameTerms}) made ahead (terms)
 
-    def terms(self, history: FrameHistory, targets: list[Pose], scales, h: float, dtype) -> FrameTerms | None:
-        """The terms of the frame from ``history`` to ``targets``; None when they are not
-        this chain's (another path, a teleport, the chain's end) or ``h`` differs."""
-        chain, k = self.chain, len(targets)
-        j = self._position.get(id(history.before))
-        if h != self.h or j is None or j + 2 + k > len(chain) or chain[j] is not history.before:
+    def terms(self, history: FrameHistory, ends: list[float], scales, h: float, dtype) -> FrameTerms | None:
+        """The terms of the frame from ``history`` through iterations ending at ``ends``
+        seconds; None when they are not this chain's next (another path, a teleport, the
+        chain's end) or ``h`` differs."""
+        chain, j, k = self.chain, self._row, len(ends)
+        if h != self.h or j + 2 + k > len(chain) or chain[j] is not history.before or chain[j + 1] is not history.now:
             return None
-        if chain[j + 1] is not history.now or any(chain[j + 2 + i] is not target for i, target in enumerate(targets)):
+        if self.times[j : j + k] != ends:
             return None
+        self._row = j + k
+        made = self._made
+        if made[0] is scales and made[1] is dtype and j in made[2]:
+            return made[2][j]
+        if self._last_scaled[0] is scales and self._last_scaled[1] is dtype and j % k == 0:
+            # the solver's scales as last frame (every frame of a usual bake): the terms of the
+            # chain's remaining frames made together, in one loop while the processor's caches
+            # are warm, not each between two frames' compiled calls (~10 us a frame there)
+            frames = {row: self._terms_at(row, k, scales, dtype) for row in range(j, self.motion[0].shape[0] - k + 1, k)}
+            self._made = (scales, dtype, frames)
+            return frames[j]
+        return self._terms_at(j, k, scales, dtype)
+
+    def _terms_at(self, j: int, k: int, scales, dtype) -> FrameTerms:
+        """The terms of the frame of ``k`` iterations from chain row ``j`` (its P_{n-1})."""
         rows = slice(j, j + k)
         poses = slice(j + 1, j + 2 + k)
         scaled = self._scaled_rows(scales, dtype, j, k)
         return _frame_terms(
-            tuple(array[rows] for array in self.motion), scales, dtype, chain[poses], self.rotations[poses],
+            tuple(array[rows] for array in self.motion), scales, dtype, self.chain[poses], self.rotations[poses],
             self.translations[poses], None if scaled is None else tuple(array[rows] for array in scaled),
+            self.pose_pairs[j + 1 : j + 1 + k], (self, rows),
         )
+
+    def in_frame(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
+        """(n-2,3) in ``dtype``: ``vector`` (3,) in the frame at the end of each of the chain's
+        iterations (R^T v), for the last vector and dtype asked for (a still or steady wind:
+        every frame; converted once, element by element: the bits of converting a frame's rows)."""
+        key = (np.asarray(vector, np.float64).tobytes(), np.dtype(dtype))
+        if self._in_frame[0] != key:
+            self._in_frame = (key, np.ascontiguousarray(self.motion[5] @ vector, dtype))
+        return self._in_frame[1]
 
     def _scaled_rows(self, scales, dtype, j: int, k: int):
         """``_scaled`` of every row of the chain with each frame's iterations at ``scales``
@@ -308,9 +440,13 @@ class FrameMotionAhead:
         None when row ``j`` does not start a frame of ``k`` iterations."""
         if j % k:
             return None
+        last_scales, last_dtype, scaled = self._last_scaled
+        if scales is last_scales and dtype is last_dtype:  # the solver's scales as last frame: no key to build
+            return scaled
         key = (np.asarray(scales, np.float64).tobytes(), np.dtype(dtype))
         scaled = self._scaled.get(key)
         if scaled is None:
             rows = self.motion[0].shape[0]
             scaled = self._scaled[key] = _scaled(self.motion, np.resize(np.asarray(scales, np.float64), rows), dtype)
+        self._last_scaled = (scales, dtype, scaled)
         return scaled

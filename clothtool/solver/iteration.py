@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 from clothtool.solver.frame import IterationTerms
 
@@ -35,6 +36,17 @@ class FramePlan:
         if index + 1 == self.iterations:
             return self.end
         return self.time + self.frame_dt * (index + 1) / self.iterations
+
+    def iteration_ends(self) -> list[float]:
+        """``iteration_end`` of every iteration (the same floats: each is the frame's start
+        plus its offset, and the offsets are the same for every frame of a bake)."""
+        return [self.time + offset for offset in _offsets(self.frame_dt, self.iterations)] + [self.end]
+
+
+@functools.lru_cache(maxsize=16)
+def _offsets(frame_dt: float, iterations: int) -> tuple[float, ...]:
+    """Seconds from a frame's start to the end of each of its iterations but the last."""
+    return tuple(frame_dt * (index + 1) / iterations for index in range(iterations - 1))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -14,7 +14,13 @@ from clothtool.solver.stage import Stage
 class TetherStage(Stage):
     name = "tethers"
 
+    _h: float | None = None  # the iteration length the stiffness is for
+    _fused: FusedCall | None = None  # the last fused_call, kept while its values stand
+
     def begin_frame(self, plan: FramePlan) -> None:
+        if plan.h == self._h:  # frames of one bake usually share their iteration length
+            return
+        self._h = plan.h
         model = self.solver.model
         material = model.material
         k = iteration_stiffness(material.tether_stiffness, self.solver.config.stiffness_frequency, plan.h)
@@ -32,10 +38,14 @@ class TetherStage(Stage):
         constrain_tethers(model.tether_anchor, model.tether_rest_length, self.scale, self.stiffness, self.solver.state.cur)
 
     def fused_call(self) -> FusedCall:
+        fused = self._fused
+        if fused is not None and fused.args["stiffness"] is self.stiffness:  # begin_frame kept the values
+            return fused
         model = self.solver.model
-        return FusedCall(
+        fused = self._fused = FusedCall(
             ("{tethers}({anchor}, {rest_length}, {scale}, {stiffness}, cur)",),
             {"anchor": model.tether_anchor, "rest_length": model.tether_rest_length, "scale": self.scale,
              "stiffness": self.stiffness},
             {"tethers": constrain_tethers},
         )
+        return fused

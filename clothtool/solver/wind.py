@@ -44,14 +44,14 @@ class WindStage(Stage):
         self.triangles = np.ascontiguousarray(model.triangles[schedule.order], np.int32)
         self.color_offsets = schedule.offsets
         self.share = corner_shares(model)
+        # the air law's constants: the cloth's material and the scene's air, fixed for a bake
+        material = model.material
+        self.drag = np.float32(material.drag_coefficient)
+        self.lift = np.float32(material.lift_coefficient)
+        self.density = np.float32(solver.environment.fluid_density * model.units_to_meters**3 / 12.0)
 
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver
-        material = solver.model.material
-        self.drag = np.float32(material.drag_coefficient)
-        self.lift = np.float32(material.lift_coefficient)
-        s = solver.model.units_to_meters
-        self.density = np.float32(solver.environment.fluid_density * s**3 / 12.0)
         self.wind_world = solver.environment.wind_at(plan.time) * plan.h
         # per iteration: the frame's motion and the air's displacement in the cloth's frame
         terms = solver.frame_terms
@@ -61,7 +61,7 @@ class WindStage(Stage):
             self.air = stacked(np.broadcast_to(self.wind_world, (plan.iterations, 3)), np.float32)
         else:
             self.matrix, self.offset = terms.motion_matrix, terms.motion_offset
-            self.air = stacked(terms.to_local @ self.wind_world, np.float32)
+            self.air = terms.in_frame(self.wind_world, np.float32)  # contiguous rows, as stacked() gives
 
     def warm_up(self) -> None:
         solver = self.solver

@@ -3,6 +3,8 @@ matches its lumped mass (closed forms on small meshes)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from clothtool.cook.cooker import CookOptions, cook_fabric
@@ -51,3 +53,22 @@ def test_a_uniform_pressure_gives_each_particle_its_own_areas_force():
         for corner in range(3):
             np.add.at(force, tri[:, corner], share[tri[:, corner]] * area / 3)
         np.testing.assert_allclose(force, model.mass / 0.2, rtol=1e-6)
+
+
+def test_shares_are_the_bits_of_summing_each_corners_areas_in_turn():
+    """The areas around each particle are summed corner by corner, triangle by triangle
+    (as np.add.at adds them): the shares of a grid with a skewed corner are those bits."""
+    model = model_of(6, 5, quads=True)
+    pos = model.rest_pos.astype(np.float64)
+    pos[7] += [0.013, 0.0, -0.021]  # triangles of unequal areas around one particle
+    model = dataclasses.replace(model, rest_pos=pos.astype(model.rest_pos.dtype))
+    pos = model.rest_pos.astype(np.float64)
+    tri = model.triangles
+    area = 0.5 * np.linalg.norm(np.cross(pos[tri[:, 1]] - pos[tri[:, 0]], pos[tri[:, 2]] - pos[tri[:, 0]]), axis=1)
+    around = np.zeros(model.particle_count)
+    for corner in range(3):
+        np.add.at(around, tri[:, corner], area)
+    lumped = model.mass / model.mass.sum()
+    expected = np.divide(lumped * around.sum(), around, out=np.zeros_like(around), where=around > 0)
+    expected[np.abs(expected - 1.0) < 1e-6] = 1.0
+    assert corner_shares(model).tobytes() == expected.astype(np.float32).tobytes()

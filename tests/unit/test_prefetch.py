@@ -14,7 +14,7 @@ from clothtool.bake import _track_path, _track_times
 from clothtool.loading import load_scene
 from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver import frame as frame_module
-from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose
+from clothtool.solver.frame import FrameHistory, FrameInertia, FrameMotionAhead, FramePath, Pose, PoseRows
 from clothtool.solver.iteration import FramePlan
 from tests.conftest import EXAMPLES
 
@@ -162,20 +162,45 @@ def test_frame_motion_ahead_gives_the_bits_of_advance_many(dtype):
     targets = path.poses(ends[:k])
     history = FrameHistory(path(-h))
     history.now = path(0.0)
-    ahead = FrameMotionAhead([history.before, history.now] + path.following(ends[0], 5 * k), gravity, h, inertia, 90.0)
+    ahead = _ahead(history, path, ends, 5 * k, gravity, h, inertia, 90.0)
     scales = np.linspace(0.9, 1.0, k)
     for frame in range(5):
         expected = history.advance_many(targets, scales, gravity, h, inertia, 90.0, dtype)
-        got = ahead.terms(history, targets, scales, h, dtype)
-        for name in ("m_cur", "m_prev", "bias", "motion_matrix", "motion_offset", "to_local", "rotations", "translations"):
+        got = ahead.terms(history, ends[frame * k:(frame + 1) * k], scales, h, dtype)
+        for name in ("m_cur", "m_prev", "bias", "motion_matrix", "motion_offset", "to_local", "rotations", "translations",
+                     "pose_pairs"):
             a, b = getattr(got, name), getattr(expected, name)
             assert a.dtype == b.dtype and np.array_equal(a, b), (frame, name)
-        assert all(p is q for p, q in zip(got.poses, expected.poses))
+        # a wind in the frame: the chain's one product gives each frame's rows bit for bit
+        wind = np.array([3.0, -0.7, 1.3]) * (frame + 1)
+        assert got.ahead is not None and expected.ahead is None
+        assert got.in_frame(wind).tobytes() == expected.in_frame(wind).tobytes()
+        for air in (got.in_frame(wind, np.float32), expected.in_frame(wind, np.float32)):
+            assert air.dtype == np.float32 and air.flags.c_contiguous
+            assert air.tobytes() == (expected.to_local @ wind).astype(np.float32).tobytes()
+        assert len(got.poses) == k + 1 and got.poses[0] is history.now  # the chain's own poses ...
+        for p, q in zip(got.poses, expected.poses):  # ... at the targets' times
+            assert np.array_equal(p.rotation, q.rotation) and np.array_equal(p.translation, q.translation)
         history.before, history.now = got.poses[-2:]
         targets = path.poses(ends[(frame + 1) * k:(frame + 2) * k])
-    # past its chain, at another h, or from a history off the chain: None (advance_many then)
-    assert ahead.terms(history, targets, scales, h, dtype) is None
-    assert ahead.terms(FrameHistory(path(0.5)), path.poses(ends[:k]), scales, h, dtype) is None
+    # past its chain, at another h, from a history off the chain or at other times: None
+    assert ahead.terms(history, ends[5 * k:6 * k], scales, h, dtype) is None
+    again = _ahead(history, path, ends[5 * k:], 2 * k, gravity, h, inertia, 90.0)
+    assert again.terms(history, ends[5 * k:6 * k], scales, 2.0 * h, dtype) is None
+    assert again.terms(FrameHistory(path(0.5)), ends[5 * k:6 * k], scales, h, dtype) is None
+    assert again.terms(history, ends[5 * k + 1:6 * k + 1], scales, h, dtype) is None
+    assert again.terms(history, ends[5 * k:6 * k], scales, h, dtype) is not None
+
+
+def _ahead(history, path, ends, count, *motion) -> FrameMotionAhead:
+    """The frame motion computed ahead from ``history`` over the path's next ``count`` planned
+    poses from ``ends[0]`` on (as the solver builds it)."""
+    following, times = path.following_rows(ends[0], count)
+    assert times == ends[:count]
+    chain = PoseRows(np.concatenate([history.before.rotation[None], history.now.rotation[None], following.rotations]),
+                     np.concatenate([history.before.translation[None], history.now.translation[None],
+                                     following.translations]), {0: history.before, 1: history.now})
+    return FrameMotionAhead(chain, times, *motion)
 
 
 def test_frame_motion_ahead_matches_world_space_verlet():
@@ -185,8 +210,8 @@ def test_frame_motion_ahead_matches_world_space_verlet():
     path = _turning_path([h * (i + 1) for i in range(20)])
     history = FrameHistory(path(-h))
     history.now = path(0.0)
-    ahead = FrameMotionAhead([history.before, history.now] + path.following(h, 20), np.zeros(3), h, FrameInertia(), 1.0)
-    terms = ahead.terms(history, path.poses([h * (i + 1) for i in range(4)]), np.ones(4), h, np.float64)
+    ahead = _ahead(history, path, [h * (i + 1) for i in range(20)], 20, np.zeros(3), h, FrameInertia(), 1.0)
+    terms = ahead.terms(history, [h * (i + 1) for i in range(4)], np.ones(4), h, np.float64)
     world = np.array([0.3, -0.2, 0.5])
     before, now = history.before.to_local(world), history.now.to_local(world)
     for i in range(4):
@@ -232,3 +257,82 @@ def test_a_bake_samples_a_tracked_cloths_frame_once(scene, monkeypatch):
     bake(scene, "null")
     iterations = FramePlan.iterations_for(1.0 / scene.fps, scene.solver.frequency)
     assert calls == [2 + iterations * (scene.end_frame - scene.start_frame + scene.preroll)]
+
+
+@pytest.mark.parametrize("stacked", [True, False])
+def test_following_rows_are_the_held_poses_as_they_slide(monkeypatch, stacked):
+    """``following_rows`` gives the held poses (the very objects ``poses`` and ``following``
+    give, made when first asked for) with their stacked arrays and times, while the window
+    slides (kept rows and new ones), whether the path samples PoseRows or lists of poses."""
+    monkeypatch.setattr(frame_module, "PLANNED_CHUNK", 8)
+    plain = _turning_path()
+
+    def many(times):
+        poses = [plain(float(t)) for t in times]
+        if not stacked:
+            return poses
+        return PoseRows(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]))
+
+    planned = [0.1 * (i + 1) for i in range(30)]
+    path = FramePath(plain, many, planned)
+    for start, count in ((0, 5), (3, 10), (12, 8), (25, 10)):
+        rows, times = path.following_rows(planned[start], count)
+        assert len(rows) == min(count, 30 - start) and times == planned[start:start + len(rows)]
+        assert all(a is b for a, b in zip(rows, path.following(planned[start], count)))
+        assert all(a is b for a, b in zip(rows, path.poses(times)))
+        assert rows.rotations.shape == (len(rows), 3, 3) and rows.translations.shape == (len(rows), 3)
+        for index, (pose, rotation, translation) in enumerate(zip(rows, rows.rotations, rows.translations)):
+            assert np.array_equal(pose.rotation, rotation) and np.array_equal(pose.translation, translation)
+            expected = plain(planned[start + index])
+            assert np.array_equal(rotation, expected.rotation) and np.array_equal(translation, expected.translation)
+    assert len(path.following_rows(0.123, 3)[0]) == 0  # not a planned time
+
+
+def test_pose_rows_make_each_pose_once_and_slices_share_them():
+    rotations, translations = np.stack([np.eye(3)] * 5), np.arange(15.0).reshape(5, 3)
+    known = Pose(np.eye(3), np.array([0.0, 1.0, 2.0]))
+    rows = PoseRows(rotations, translations, {0: known})
+    assert rows[0] is known and rows[-1] is rows[4] and rows[1:4][2] is rows[3]
+    np.testing.assert_array_equal(rows[2].translation, [6.0, 7.0, 8.0])
+    assert rows[3:][0] is rows[3] and len(rows[3:]) == 2 and list(rows[3:]) == [rows[3], rows[4]]
+    assert set(rows[1:].known()) == {1, 2, 3}  # rows 2-4 were made above (row 1 never), numbered from the slice
+    with pytest.raises(IndexError):
+        rows[5]
+    assert PoseRows.of([known])[0] is known
+
+
+def test_pose_pairs_are_each_iterations_start_and_end_pose():
+    path = _turning_path()
+    poses = [path(0.1 * i) for i in range(5)]
+    pairs = frame_module.pose_pairs(np.stack([p.rotation for p in poses]), np.stack([p.translation for p in poses]))
+    assert pairs.shape == (4, 8, 3)
+    for i in range(4):
+        np.testing.assert_array_equal(pairs[i, 0:3], poses[i].rotation)
+        np.testing.assert_array_equal(pairs[i, 3], poses[i].translation)
+        np.testing.assert_array_equal(pairs[i, 4:7], poses[i + 1].rotation)
+        np.testing.assert_array_equal(pairs[i, 7], poses[i + 1].translation)
+
+
+@pytest.mark.parametrize("fps, frequency, preroll", [(10.0, 240.0, 0), (24.0, 300.0, 2), (30.0, 10.0, 1)])
+def test_track_times_are_the_plans_iteration_ends(scene, fps, frequency, preroll):
+    """The planned times, worked out for all frames at once, are the very floats the frames'
+    plans give (a FramePath finds a pose by its time)."""
+    scene = dataclasses.replace(scene, fps=fps, preroll=preroll,
+                                solver=dataclasses.replace(scene.solver, frequency=frequency))
+    frame_dt = 1.0 / scene.fps
+    iterations = FramePlan.iterations_for(frame_dt, scene.solver.frequency)
+    first = scene.start_frame - scene.preroll + 1
+    start = scene.frame_time(first - 1)
+    expected = [start - frame_dt / iterations, start]
+    for frame in range(first, scene.end_frame + 1):
+        plan = FramePlan(frame, scene.frame_time(frame - 1), frame_dt, iterations, frame_dt / iterations, 0.0,
+                         scene.frame_time(frame))
+        expected += [plan.iteration_end(index) for index in range(iterations)]
+    assert _track_times(scene) == expected
+
+
+@pytest.mark.parametrize("frame_dt, iterations", [(1.0 / 24.0, 13), (1.0 / 30.0, 1), (0.1, 7)])
+def test_iteration_ends_are_each_iteration_end(frame_dt, iterations):
+    for frame, time in ((1, 0.0), (17, 16 * frame_dt), (400, 399 * frame_dt)):
+        plan = FramePlan(frame, time, frame_dt, iterations, frame_dt / iterations, 0.0, frame * frame_dt)
+        assert plan.iteration_ends() == [plan.iteration_end(index) for index in range(iterations)]
