@@ -182,6 +182,11 @@ def compile_frame(source: str):
     return dispatcher
 
 
+# the calls' lines, argument names and kernels -> (source, function), for this process: a new
+# solver (the next bake) with the same stages finds its frame function without writing it
+_SHAPES: dict[tuple, tuple[str, object]] = {}
+
+
 class FusedFrame:
     """One cloth's frame function: rebuilt when its stages' source changes (a stage that
     picks another kernel, colliders that appear), argument values gathered each frame."""
@@ -189,18 +194,18 @@ class FusedFrame:
     def __init__(self) -> None:
         self.source = ""
         self.function: object = None
-        self._shapes: dict[tuple, tuple[str, object]] = {}  # the calls' lines and kernels -> (source, function)
 
     def prepare(self, stages) -> tuple[object, list, bool]:
         """(function, argument values, True when the function is new in this solver)."""
         calls = [stage.fused_call() for stage in stages]
-        shape = tuple((call.lines, tuple(call.args), tuple(map(id, call.kernels.values()))) for call in calls)
-        known = self._shapes.get(shape)
+        # the kernels themselves, not their ids: the key keeps them alive, so no id is reused
+        shape = tuple((call.lines, tuple(call.args), tuple(call.kernels.values())) for call in calls)
+        known = _SHAPES.get(shape)
         if known is None:
             source, _ = frame_source(calls)
-            known = self._shapes[shape] = (source, compile_frame(source))
+            known = _SHAPES[shape] = (source, compile_frame(source))
         values = [value for call in calls for value in call.args.values()]
-        new = known[0] != self.source
+        new = known[0] is not self.source
         self.source, self.function = known
         return self.function, values, new
 
