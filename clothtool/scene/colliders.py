@@ -142,6 +142,14 @@ class SceneColliders:
         self.colliders = colliders
         self._cache: dict[float, ColliderArrays] = {}
         self._prefetched: _ColliderSamples | None = None
+        # colliders with no track (or a one-key track) and no deformation are the same at every
+        # time: ``at`` gives one ColliderArrays for all, and a cloth's collide stage, seeing
+        # the very arrays of its last frame, copies nothing (a track of several equal keys is
+        # left out: interpolating equal keys need not give their bits)
+        self._fixed = all(
+            c.deform_points is None and (c.track is None or c.track.times.shape[0] == 1) for c in colliders
+        )
+        self._fixed_arrays: ColliderArrays | None = None
 
     def __len__(self) -> int:
         return len(self.colliders)
@@ -167,6 +175,8 @@ class SceneColliders:
         self._cache.clear()
 
     def at(self, time: float) -> ColliderArrays:
+        if self._fixed_arrays is not None:
+            return self._fixed_arrays
         arrays = self._cache.get(time)
         if arrays is None:
             if len(self._cache) > 4:  # a bake asks for the start and end of each frame
@@ -176,6 +186,8 @@ class SceneColliders:
             if row is None:  # the same code for one time: the same bits as a prefetched time
                 samples, row = _ColliderSamples(self.colliders, np.array([float(time)])), 0
             arrays = self._cache[time] = samples.arrays(row)
+        if self._fixed:
+            self._fixed_arrays = arrays
         return arrays
 
     def rest_mesh(self, time: float, names) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

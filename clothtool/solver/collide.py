@@ -228,6 +228,7 @@ class CollideStage(Stage):
         self.alpha0 = self.alpha1 = self.alpha_step = np.zeros(1)
         self._alpha_iterations = 0  # the iteration count the alphas are for
         self._layouts: dict[str, tuple] = {}  # see _same_layout
+        self._copied: tuple = (None, None)  # the ColliderArrays the frame's copies were made from
         self.pose_mesh = np.zeros(1, np.bool_)
 
     def collider_sample_spacing(self) -> float:
@@ -242,11 +243,13 @@ class CollideStage(Stage):
         colliders = self.solver.environment.colliders
         start = colliders(plan.time)
         end = colliders(plan.end)
-        self._check_same_layout(start, end, plan)
-        self._copy_spheres(start, end)
-        self._copy_convexes(start, end)
-        self._copy_meshes(start, end)
-        self.kernel = self._kernel_for(start)
+        if start is not self._copied[0] or end is not self._copied[1]:  # else: colliders fixed in time
+            self._check_same_layout(start, end, plan)
+            self._copy_spheres(start, end)
+            self._copy_convexes(start, end)
+            self._copy_meshes(start, end)
+            self.kernel = self._kernel_for(start)
+            self._copied = (start, end)
         if self.face_collision and not self._faces_sized:
             self._add_faces(start)
         self._iteration_arrays(plan)

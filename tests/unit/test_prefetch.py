@@ -336,3 +336,75 @@ def test_iteration_ends_are_each_iteration_end(frame_dt, iterations):
     for frame, time in ((1, 0.0), (17, 16 * frame_dt), (400, 399 * frame_dt)):
         plan = FramePlan(frame, time, frame_dt, iterations, frame_dt / iterations, 0.0, frame * frame_dt)
         assert plan.iteration_ends() == [plan.iteration_end(index) for index in range(iterations)]
+
+
+FIXED_SCENE = f"""
+[scene]
+fps = 10.0
+frames = [0, 6]
+[cloth.c]
+mesh = "{(EXAMPLES / 'cape' / 'cape.obj').as_posix()}"
+cook = {{ pin_attr = "color_r" }}
+[track.still]
+keys = [ {{ time = 0, translate = [0, -0.5, 0], rotate_euler = [0, 30, 0] }} ]
+[collider.ball]
+kind = "sphere"
+center = [0.1, -0.3, 0]
+radius = 0.2
+[collider.leg]
+kind = "capsule"
+start = [0, 0, 0]
+end = [0, -1, 0]
+radii = [0.1, 0.08]
+track = "still"
+"""
+
+
+def test_colliders_fixed_in_time_are_one_set_of_arrays(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text(FIXED_SCENE)
+    colliders = load_scene(path).colliders
+    first = colliders.at(0.0)
+    alone = _fields(first)
+    colliders.prefetch([0.0, 0.1, 0.2])
+    assert colliders.at(0.2) is first and colliders.at(0.35) is first
+    # the same bits as a prefetched time would have
+    fresh = load_scene(path).colliders
+    fresh.prefetch([0.0, 0.1, 0.2])
+    for name, array in _fields(fresh.at(0.1)).items():
+        assert np.array_equal(array, alone[name], equal_nan=name.endswith("friction")), name
+
+
+def test_moving_colliders_are_arrays_of_their_time(scene):
+    assert scene.colliders.at(0.0) is not scene.colliders.at(0.1)
+
+
+def test_the_collide_stage_copies_fixed_colliders_once(tmp_path, monkeypatch):
+    from clothtool.bake import BakeOptions, bake
+    from clothtool.io.memory import MemoryCacheWriter
+    from clothtool.solver.collide import CollideStage
+
+    path = tmp_path / "scene.toml"
+    path.write_text(FIXED_SCENE)
+    copies = []
+    original = CollideStage._copy_spheres
+    monkeypatch.setattr(CollideStage, "_copy_spheres", lambda self, *a: (copies.append(1), original(self, *a)))
+    baked = MemoryCacheWriter()
+    bake(load_scene(path), baked, BakeOptions())
+    assert len(copies) == 1
+    monkeypatch.setattr(CollideStage, "_copy_spheres", original)
+    # and the bake's bits are those of a stage that copies them every frame
+    monkeypatch.setattr(CollideStage, "begin_frame", _copying_every_frame(CollideStage.begin_frame))
+    every_frame = MemoryCacheWriter()
+    bake(load_scene(path), every_frame, BakeOptions())
+    assert baked.frames.keys() == every_frame.frames.keys()
+    for frame, points in baked.frames.items():
+        assert np.array_equal(points[0], every_frame.frames[frame][0]), frame
+
+
+def _copying_every_frame(begin_frame):
+    def begin(self, plan):
+        self._copied = (None, None)
+        return begin_frame(self, plan)
+
+    return begin
