@@ -95,17 +95,18 @@ class _DeviceType(numba_types.Dispatcher):
     constant after inlining). Boolean literals stay: they let numba prune a helper's branches."""
 
     def get_call_type(self, context, args, kws):
-        return super().get_call_type(context, tuple(map(_plain_integers, args)), {k: _plain_integers(v) for k, v in kws.items()})
+        return super().get_call_type(context, tuple(map(plain_integers, args)), {k: plain_integers(v) for k, v in kws.items()})
 
 
 register_default(_DeviceType)(models.OpaqueModel)  # as numba's own Dispatcher type
 
 
-def _plain_integers(ty):
+def plain_integers(ty):
+    """``ty`` with integer literals (also inside tuples) made their plain integer type."""
     if isinstance(ty, numba_types.IntegerLiteral):
         return ty.literal_type
     if isinstance(ty, numba_types.BaseTuple) and not isinstance(ty, numba_types.BaseNamedTuple):
-        return numba_types.BaseTuple.from_types([_plain_integers(t) for t in ty.types])
+        return numba_types.BaseTuple.from_types([plain_integers(t) for t in ty.types])
     return ty
 
 

@@ -26,6 +26,8 @@ from numba.core import types
 from numba.core.errors import TypingError
 from numba.extending import intrinsic
 
+from clothtool._jit import plain_integers
+
 # slot -> (dispatcher, argument types) of each call compiled since the last clear: what
 # clothtool.solver.framefn.compile_for puts in the table when it compiles a frame function
 TYPED_SLOTS: dict[int, tuple] = {}
@@ -45,7 +47,10 @@ def call_kernel(typingctx, callees, slot, kernel, args):
     in row ``slot`` (an integer constant) of the uint64 (slots, 2) array ``callees``."""
     if not isinstance(slot, types.IntegerLiteral):
         raise TypingError("call_kernel: the slot must be an integer constant")
-    signature = kernel.get_call_type(typingctx, tuple(args.types), {})
+    # integer constants typed as plain integers (as clothtool._jit's device helpers are): a
+    # literal would compile the kernel again for each constant (pose_spheres(..., 0, ...)),
+    # where the stage-by-stage path and warm-up use the plain overload
+    signature = kernel.get_call_type(typingctx, tuple(map(plain_integers, args.types)), {})
     dispatcher = kernel.dispatcher
     row = slot.literal_value
     token = callee_token(dispatcher, tuple(signature.args))
