@@ -1,8 +1,8 @@
 """Convention: every numba kernel has a plain-numpy reference and a comparison test.
 
 A kernel is a numba dispatcher defined in a clothtool module; its module is every module of
-clothtool.solver.kernels and any other module that imports clothtool._jit (today the mesh
-colouring and the cook's phases). For a kernel module ``x`` there must be
+clothtool.solver.kernels and any other module that imports clothtool._jit and defines one
+(today the mesh colouring and the cook's phases, among others). For a kernel module ``x`` there must be
 
 * ``tests/reference/x.py`` with a plain function of the same name for each kernel (no numba),
   private helpers included;
@@ -47,9 +47,11 @@ def _imports(path: Path) -> set[str]:
 
 
 def kernel_modules() -> list[str]:
+    """Every module of the kernels package, and every other module that imports
+    clothtool._jit and defines a kernel (one may import it for a typing helper only)."""
     modules = {f"{kernel_package.__name__}.{info.name}" for info in pkgutil.iter_modules(kernel_package.__path__)}
     for path in PACKAGE.rglob("*.py"):
-        if path.name != "_jit.py" and "clothtool._jit" in _imports(path):
+        if path.name != "_jit.py" and "clothtool._jit" in _imports(path) and kernels_of(_module_name(path)):
             modules.add(_module_name(path))
     return sorted(modules)
 
