@@ -27,7 +27,7 @@ from clothtool.sim.integrators import Integrator, check_capabilities, integrator
 from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import FramePath, PoseRows
 from clothtool.solver.groupmeter import make_meters
-from clothtool.solver.iteration import FramePlan
+from clothtool.solver.iteration import FramePlan, iteration_offsets
 from clothtool.solver.kernels.rows import gather_xyz
 from clothtool.solver.model import build_model
 from clothtool.workload import iterations_per_frame
@@ -173,11 +173,11 @@ def _track_times(scene: Scene) -> list[float]:
     first = scene.start_frame - scene.preroll + 1
     start = scene.frame_time(first - 1)
     frames = range(first, scene.end_frame + 1)
-    # FramePlan.iteration_end for every frame at once: numpy's float64 operations, in the same
-    # order, give its bits; the last iteration of each frame ends on the frame's time
+    # FramePlan.iteration_end for every frame at once (the frame's start plus the offsets, one
+    # float64 addition each: its bits); the last iteration of each frame ends on the frame's time
     ends = np.empty((len(frames), iterations))
     ends[:] = np.array([scene.frame_time(frame - 1) for frame in frames])[:, None]
-    ends[:, :-1] += frame_dt * np.arange(1, iterations) / iterations
+    ends[:, :-1] += np.array(iteration_offsets(frame_dt, iterations))
     ends[:, -1] = [scene.frame_time(frame) for frame in frames]
     return [start - frame_dt / iterations, start] + ends.ravel().tolist()
 

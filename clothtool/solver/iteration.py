@@ -35,17 +35,17 @@ class FramePlan:
         so a track key at the frame's time is sampled at the key, not a rounding error past it."""
         if index + 1 == self.iterations:
             return self.end
-        return self.time + self.frame_dt * (index + 1) / self.iterations
+        return self.time + iteration_offsets(self.frame_dt, self.iterations)[index]
 
     def iteration_ends(self) -> list[float]:
-        """``iteration_end`` of every iteration (the same floats: each is the frame's start
-        plus its offset, and the offsets are the same for every frame of a bake)."""
-        return [self.time + offset for offset in _offsets(self.frame_dt, self.iterations)] + [self.end]
+        """``iteration_end`` of every iteration."""
+        return [self.time + offset for offset in iteration_offsets(self.frame_dt, self.iterations)] + [self.end]
 
 
 @functools.lru_cache(maxsize=16)
-def _offsets(frame_dt: float, iterations: int) -> tuple[float, ...]:
-    """Seconds from a frame's start to the end of each of its iterations but the last."""
+def iteration_offsets(frame_dt: float, iterations: int) -> tuple[float, ...]:
+    """Seconds from a frame's start to the end of each of its iterations but the last (the
+    same for every frame of a bake): an iteration ends at the frame's start plus its offset."""
     return tuple(frame_dt * (index + 1) / iterations for index in range(iterations - 1))
 
 
