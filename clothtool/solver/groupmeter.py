@@ -11,7 +11,7 @@ member's own meter.
 from __future__ import annotations
 
 from clothtool.solver.kernels.stats import frame_summary
-from clothtool.solver.measure import ClothMeter
+from clothtool.solver.measure import PERCENTILE, ClothMeter
 
 
 class GroupMeasure:
@@ -24,9 +24,9 @@ class GroupMeasure:
         for meter in meters:
             model, state = meter.solver.model, meter.solver.state
             self._arguments.append((
-                (model.constraint_indices, model.constraint_rest_length, meter.span_bounds, state.cur, state.prev,
-                 model.mass),
-                (model.tether_anchor, model.tether_rest_length, meter.span_max, meter.span_sum),
+                (model.constraint_indices, model.constraint_rest_length, meter.span_bounds, meter.groups, PERCENTILE,
+                 state.cur, state.prev, model.mass),
+                (model.tether_anchor, model.tether_rest_length, meter.span_max, meter.span_sum, meter.percentiles[:0]),
             ))
         self._token: tuple | None = None
         self._stats: list[dict] = []

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.kernels.stats import constraint_strain, frame_summary, motion_summary, tether_stretch, upper_percentile
+from clothtool.solver.kernels.stats import frame_summary
 from clothtool.solver.penetration import face_penetration, warm_up_mesh_depths, warm_up_round_cone_depths
 
 PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
+PERCENTILE = 99.0  # the report's upper strain percentile, "p99"
 
 
 class ClothMeter:
@@ -27,54 +28,55 @@ class ClothMeter:
             last = int(model.set_offsets[model.phase_set_offsets[p + 1]])
             if last > first:
                 self.spans.setdefault(label, []).append((first, last))
-        self.strain = np.zeros(model.constraint_indices.shape[0], solver.state.cur.dtype)
-        # frame_summary's spans, label by label in PHASE_LABELS order, and its outputs
+        # frame_summary's spans, label by label in PHASE_LABELS order, its groups (a label's
+        # spans: groups[g] .. groups[g + 1]) and its outputs
         ordered = [(label, span) for label in PHASE_LABELS for span in self.spans.get(label, ())]
         self.span_labels = [label for label, _ in ordered]
         self.span_bounds = np.array([span for _, span in ordered], np.int64).reshape(-1, 2)
         self.span_max = np.zeros(len(ordered))
         self.span_sum = np.zeros(len(ordered))
+        self.group_labels = [label for label in PHASE_LABELS if label in self.spans]
+        self.groups = np.cumsum([0] + [len(self.spans[label]) for label in self.group_labels]).astype(np.int64)
+        self.percentiles = np.zeros(len(self.group_labels))  # p99 strain per label, when asked for
+        self._no_percentiles = self.percentiles[:0]
         self._span_counts = (self.span_bounds[:, 1] - self.span_bounds[:, 0]).tolist()
         self._span_per_label = len(set(self.span_labels)) == len(self.span_labels)
         self.has_tethers = model.has_tethers
         self.colliders = solver.environment.colliders
 
     def warm_up(self, percentiles: bool = True, mesh_penetration: bool = False, shape_penetration: bool = False) -> None:
-        """Compile the kernels ``measure(h, percentiles)`` calls (with percentiles: the
-        strain-keeping ones, else the reducing one; with mesh_penetration and
-        shape_penetration, the measure of faces in mesh colliders and in spheres and capsules)."""
-        model, state = self.solver.model, self.solver.state
+        """Compile the kernels ``measure`` calls (with mesh_penetration and shape_penetration, the
+        measure of faces in mesh colliders and in spheres and capsules). One kernel measures with
+        and without percentiles: ``percentiles`` is accepted for the callers' symmetry."""
         if mesh_penetration:
             warm_up_mesh_depths()
         if shape_penetration:
             warm_up_round_cone_depths()
-        if percentiles:
-            constraint_strain(model.constraint_indices[:0], model.constraint_rest_length[:0], state.cur, self.strain[:0])
-            upper_percentile(self.strain[:0], 99.0)
-            motion_summary(state.cur[:0], state.prev[:0], model.mass[:0], 1.0)
-            if self.has_tethers:
-                tether_stretch(model.tether_anchor[:0], model.tether_rest_length[:0], state.cur)
-        else:
-            frame_summary(model.constraint_indices, model.constraint_rest_length, self.span_bounds[:0], state.cur[:0],
-                          state.prev[:0], model.mass[:0], 1.0, model.tether_anchor[:0], model.tether_rest_length[:0],
-                          self.span_max, self.span_sum)
+        self.summarise(1.0, percentiles, self.groups[:1])
+
+    def summarise(self, inv_h: float, percentiles: bool, groups: np.ndarray | None = None) -> tuple:
+        """frame_summary over this cloth (strain extremes per span into span_max and span_sum,
+        with percentiles the p99 strain per label into ``percentiles``); returns its (max
+        speed, kinetic energy, fastest particle, first non-finite particle, tether stretch)."""
+        model, state = self.solver.model, self.solver.state
+        return frame_summary(
+            model.constraint_indices, model.constraint_rest_length, self.span_bounds, self.groups if groups is None else groups,
+            PERCENTILE, state.cur, state.prev, model.mass, inv_h, model.tether_anchor, model.tether_rest_length,
+            self.span_max, self.span_sum, self.percentiles if percentiles else self._no_percentiles,
+        )
 
     def measure(self, h: float, percentiles: bool, time: float | None = None) -> dict:
         """Stats after the last iteration of a frame of iteration length ``h`` ending at
-        ``time`` (seconds; face penetration is measured when given and there are colliders).
-        Without percentiles one compiled call (frame_summary) measures everything."""
-        model, state = self.solver.model, self.solver.state
+        ``time`` (seconds; face penetration is measured when given and there are colliders),
+        in one compiled call (frame_summary); with percentiles the strain per phase type
+        carries its 99th percentile too."""
+        model = self.solver.model
         to_m = model.units_to_meters
+        speed, energy, fastest, bad, stretch = self.summarise(1.0 / h, percentiles)
+        strain = self.strain_from_spans()
         if percentiles:
-            strain = self._strain_with_percentiles()
-            speed, energy, fastest, bad = motion_summary(state.cur, state.prev, model.mass, 1.0 / h)
-            stretch = tether_stretch(model.tether_anchor, model.tether_rest_length, state.cur) if self.has_tethers else 0.0
-        else:
-            speed, energy, fastest, bad, stretch = frame_summary(
-                model.constraint_indices, model.constraint_rest_length, self.span_bounds, state.cur, state.prev,
-                model.mass, 1.0 / h, model.tether_anchor, model.tether_rest_length, self.span_max, self.span_sum,
-            )
-            strain = self.strain_from_spans()
+            for label, p99 in zip(self.group_labels, self.percentiles.tolist()):
+                strain[label]["p99"] = p99
         stats = self.summary_stats(strain, speed, energy, fastest, bad, stretch)
         if time is not None and self.colliders is not None:
             faces = face_penetration(
@@ -114,25 +116,3 @@ class ClothMeter:
             entry[0] += total
             entry[1] += count
         return {label: {"max": worst[label], "mean": totals[label][0] / totals[label][1]} for label in worst}
-
-    def _strain_with_percentiles(self) -> dict:
-        """Per phase type (max, mean, p99): the 99th percentile needs every strain, so they
-        are computed and kept."""
-        model, state = self.solver.model, self.solver.state
-        indices, rest = model.constraint_indices, model.constraint_rest_length
-        strain = {}
-        for label in PHASE_LABELS:
-            if label not in self.spans:
-                continue
-            spans = self.spans[label]
-            for first, last in spans:
-                constraint_strain(indices[first:last], rest[first:last], state.cur, self.strain[first:last])
-            values = self.strain[spans[0][0] : spans[0][1]] if len(spans) == 1 else np.concatenate(
-                [self.strain[a:b] for a, b in spans]
-            )
-            strain[label] = {
-                "max": float(values.max()),
-                "mean": float(values.sum(dtype=np.float64)) / values.size,
-                "p99": float(upper_percentile(values, 99.0)),
-            }
-        return strain

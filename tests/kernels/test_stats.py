@@ -190,7 +190,8 @@ def test_tether_stretch_ignores_inactive_slots():
 
 
 @settings(max_examples=60)
-@given(seed=seeds, n=st.integers(0, 400), q=st.sampled_from([0.0, 1.0, 50.0, 90.0, 99.0, 99.9, 100.0]), ties=st.booleans())
+@given(seed=seeds, n=st.one_of(st.integers(0, 400), st.integers(400, 5000)),
+       q=st.sampled_from([0.0, 1.0, 50.0, 90.0, 99.0, 99.9, 100.0]), ties=st.booleans())
 def test_upper_percentile_matches_numpy(seed, n, q, ties):
     rng = np.random.default_rng(seed)
     values = f32(rng.normal(0.0, 0.05, n))
@@ -209,28 +210,83 @@ def test_upper_percentile_nan():
     assert upper_percentile(f32([0.25]), 99.0) == 0.25
 
 
+def groups_of(rng, spans):
+    """Random group offsets over ``spans`` spans: 0 = g0 <= g1 <= ... = spans."""
+    cuts = np.sort(rng.integers(0, spans + 1, rng.integers(0, 4)))
+    return np.concatenate([[0], cuts, [spans]]).astype(np.int64)
+
+
 @settings(max_examples=25)
-@given(seed=seeds, n=st.integers(1, 40), c=st.integers(0, 80), spans=st.integers(0, 5), k=st.integers(0, 2))
-def test_frame_summary_is_the_separate_kernels_in_one_call(seed, n, c, spans, k):
-    """The same figures, to the bit, as strain_extremes over each span, motion_summary and
-    tether_stretch called one by one (which the reference checks against numpy)."""
+@given(seed=seeds, n=st.integers(1, 40), c=st.integers(0, 80), spans=st.integers(0, 5), k=st.integers(0, 2),
+       q=st.sampled_from([0.0, 50.0, 99.0, 100.0]), with_percentiles=st.booleans())
+def test_frame_summary_is_the_separate_kernels_in_one_call(seed, n, c, spans, k, q, with_percentiles):
+    """The same figures, to the bit, as strain_extremes over each span, motion_summary,
+    tether_stretch and upper_percentile over each group's strains called one by one (which the
+    reference checks against numpy)."""
     rng = np.random.default_rng(seed)
     cur, prev = particles(rng, n, speed=0.01)
     indices = np.ascontiguousarray(rng.integers(0, n, (c, 2)), np.int32)
     rest = f32(rng.uniform(0.0, 1.0, c))
     cuts = np.sort(rng.integers(0, c + 1, 2 * spans)).reshape(-1, 2).astype(np.int64)
+    groups = groups_of(rng, spans)
     masses = rng.uniform(0.001, 0.01, n)
     anchors = np.ascontiguousarray(rng.integers(0, n, k * n), np.int32)
     lengths = f32(rng.uniform(0.0, 1.0, k * n))
     span_max, span_sum = np.full(spans, np.nan), np.full(spans, np.nan)
-    got = frame_summary(indices, rest, cuts, cur, prev, masses, INV_DT, anchors, lengths, span_max, span_sum)
+    percentiles = np.full(groups.shape[0] - 1 if with_percentiles else 0, -7.0)
+    got = frame_summary(indices, rest, cuts, groups, q, cur, prev, masses, INV_DT, anchors, lengths, span_max, span_sum,
+                        percentiles)
     separate = (*motion_summary(cur, prev, masses, INV_DT), tether_stretch(anchors, lengths, cur))
     assert got == separate
     for s, (first, last) in enumerate(cuts):
         assert (span_max[s], span_sum[s]) == strain_extremes(indices[first:last], rest[first:last], cur)
+    for g in range(percentiles.shape[0]):
+        strains = np.concatenate([np.zeros(0, np.float32)] + [strain_of(indices[a:b], rest[a:b], cur) for a, b in cuts[groups[g] : groups[g + 1]]])
+        assert percentiles[g] == upper_percentile(strains, q) or np.isnan(percentiles[g]) and strains.size == 0
     want_max, want_sum = np.full(spans, np.nan), np.full(spans, np.nan)
-    want = ref.frame_summary(indices, rest, cuts, cur, prev, masses, INV_DT, anchors, lengths, want_max, want_sum)
+    want_percentiles = np.full_like(percentiles, -7.0)
+    want = ref.frame_summary(indices, rest, cuts, groups, q, cur, prev, masses, INV_DT, anchors, lengths, want_max, want_sum,
+                             want_percentiles)
     assert got[2:4] == want[2:4] and got[0] == pytest.approx(want[0], rel=1e-6) and got[4] == pytest.approx(want[4], rel=1e-5, abs=1e-5)
     for s, (first, last) in enumerate(cuts):
         if last > first:
             assert span_max[s] == pytest.approx(want_max[s], abs=10 * U * (abs(want_max[s]) + 1))
+    assert_close(percentiles, want_percentiles, atol=10 * U * (np.abs(want_percentiles) + 1))
+
+
+@settings(max_examples=20)
+@given(seed=seeds, c=st.integers(300, 6000), spans=st.integers(1, 4), q=st.sampled_from([50.0, 90.0, 99.0, 99.9]),
+       order=st.sampled_from(["random", "rising", "falling"]))
+def test_frame_summary_percentiles_over_many_blocks(seed, c, spans, q, order):
+    """Group percentiles over thousands of strains (the candidates are pruned many times),
+    including strains that rise or fall along the constraints (each new one a candidate, or
+    none after the first block), equal np.percentile over the group's strains."""
+    rng = np.random.default_rng(seed)
+    n = 200
+    cur, prev = particles(rng, n, speed=0.01)
+    indices = np.ascontiguousarray(rng.integers(0, n, (c, 2)), np.int32)
+    rest = f32(rng.uniform(0.5, 1.5, c))
+    if order != "random":  # sort the constraints by their strain
+        strains = ref.constraint_strain(indices, rest, cur)
+        ranks = np.argsort(strains if order == "rising" else -strains, kind="stable")
+        indices, rest = np.ascontiguousarray(indices[ranks]), np.ascontiguousarray(rest[ranks])
+    cuts = np.sort(np.concatenate([[0, c], rng.integers(0, c + 1, 2 * spans - 2)])).reshape(-1, 2).astype(np.int64)
+    groups = np.array([0, spans], np.int64)
+    span_max, span_sum, percentiles = np.zeros(spans), np.zeros(spans), np.zeros(1)
+    frame_summary(indices, rest, cuts, groups, q, cur, prev, np.ones(n), INV_DT, anchors := np.zeros(0, np.int32),
+                  np.zeros(0, np.float32), span_max, span_sum, percentiles)
+    strains = np.concatenate([strain_of(indices[a:b], rest[a:b], cur) for a, b in cuts])
+    assert percentiles[0] == upper_percentile(strains, q)
+    assert percentiles[0] == pytest.approx(np.percentile(strains.astype(np.float64), q), rel=1e-12, abs=1e-15)
+    assert anchors.size == 0
+
+
+def test_frame_summary_percentile_of_a_nan_strain_is_nan():
+    cur, prev = particles(np.random.default_rng(0), 4, speed=0.01)
+    cur[2, 0] = np.nan
+    indices = np.array([[0, 1], [1, 2], [2, 3]], np.int32)
+    percentiles = np.zeros(2)
+    frame_summary(indices, f32([1.0, 1.0, 1.0]), np.array([[0, 1], [1, 3]], np.int64), np.array([0, 1, 2], np.int64), 99.0,
+                  cur, prev, np.ones(4), INV_DT, np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(2), np.zeros(2),
+                  percentiles)
+    assert np.isfinite(percentiles[0]) and np.isnan(percentiles[1])

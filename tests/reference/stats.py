@@ -80,11 +80,17 @@ def _strain_extremes_between(indices, rest, cur, first, last):
     return strain_extremes(np.asarray(indices)[first:last], np.asarray(rest)[first:last], cur)
 
 
-def frame_summary(indices, rest, spans, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max, span_sum):
-    """strain_extremes per span into span_max, span_sum; returns motion_summary's four values
-    and tether_stretch."""
-    for s, (first, last) in enumerate(np.asarray(spans)):
+def frame_summary(indices, rest, spans, groups, q, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max, span_sum,
+                  percentiles):
+    """strain_extremes per span into span_max, span_sum; upper_percentile(q) of the strains of
+    spans groups[g] .. groups[g + 1] into percentiles[g] when percentiles is not empty;
+    returns motion_summary's four values and tether_stretch."""
+    spans = np.asarray(spans)
+    for s, (first, last) in enumerate(spans):
         span_max[s], span_sum[s] = _strain_extremes_between(indices, rest, cur, first, last)
+    for g in range(len(percentiles)):
+        strains = [constraint_strain(np.asarray(indices)[a:b], np.asarray(rest)[a:b], cur) for a, b in spans[groups[g] : groups[g + 1]]]
+        percentiles[g] = upper_percentile(np.concatenate([np.zeros(0), *strains]), q)
     return (*motion_summary(cur, prev, masses, inv_dt), tether_stretch(anchors, tether_lengths, cur))
 
 

@@ -141,9 +141,12 @@ def constraint_strain(indices, rest, cur, strain):
             strain[lo + i] = block_strain[i]
 
 
-@kernel(inline="always", fastmath={"contract", "reassoc"})
-def _strain_extremes_between(indices, rest, cur, first, last):
-    """(max strain, sum of strains) over constraints first .. last (see strain_extremes)."""
+@kernel(device=True, fastmath={"contract", "reassoc"})
+def _strain_extremes_between(indices, rest, cur, first, last, top, count, threshold, m):
+    """(max strain, sum of strains, count, threshold) over constraints first .. last (see
+    strain_extremes); with m > 0 each strain is also offered to the candidates ``top`` of the
+    m largest (see _offer_block). A block whose largest strain is not above the threshold is
+    skipped whole: _offer_block would turn each of its values away."""
     flat = cur.reshape(-1)
     strain = np.empty(STAT_BLOCK, cur.dtype)
     worst = np.float32(-np.inf)
@@ -155,8 +158,11 @@ def _strain_extremes_between(indices, rest, cur, first, last):
         _edge_strains(flat, indices, rest, lo, hi, strain)
         for i in range(hi - lo):  # apart from the max, so that the sum vectorises
             total += np.float64(strain[i])
-        worst = _block_max(strain, hi - lo, worst)
-    return np.float64(worst), total
+        block_worst = _block_max(strain, hi - lo, np.float32(-np.inf))
+        worst = max(worst, block_worst)
+        if m > 0 and not np.float64(block_worst) <= threshold:
+            count, threshold = _offer_block(top, count, threshold, m, strain, hi - lo)
+    return np.float64(worst), total, count, threshold
 
 
 # "reassoc" lets the float64 sum vectorise; its order is fixed by the code, so the result
@@ -165,65 +171,149 @@ def _strain_extremes_between(indices, rest, cur, first, last):
 def strain_extremes(indices, rest, cur):
     """(max strain, sum of strains) over the constraints given: the same strain as
     ``constraint_strain``, reduced without storing it (float64 sum)."""
-    return _strain_extremes_between(indices, rest, cur, 0, indices.shape[0])
+    worst, total, _, _ = _strain_extremes_between(indices, rest, cur, 0, indices.shape[0], np.empty(0), 0, np.nan, 0)
+    return worst, total
 
 
 @kernel(fastmath={"contract", "reassoc"})
-def frame_summary(indices, rest, spans, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max, span_sum):
+def frame_summary(indices, rest, spans, groups, q, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max,
+                  span_sum, percentiles):
     """A frame's stats in one call: span_max[s], span_sum[s] = strain_extremes over the
-    constraints spans[s, 0] .. spans[s, 1]; returns motion_summary's (max speed, kinetic
-    energy, fastest particle, first non-finite particle) and tether_stretch (0 without
-    tethers)."""
-    for s in range(spans.shape[0]):
-        span_max[s], span_sum[s] = _strain_extremes_between(indices, rest, cur, spans[s, 0], spans[s, 1])
+    constraints spans[s, 0] .. spans[s, 1]; percentiles[g] (when given: one per group, else
+    empty) = upper_percentile(strains, q) over the strains of spans groups[g] .. groups[g + 1],
+    as if they were one array (the strains are offered to the candidates as they are
+    measured, none is stored); returns motion_summary's (max speed, kinetic energy, fastest
+    particle, first non-finite particle) and tether_stretch (0 without tethers)."""
+    for g in range(groups.shape[0] - 1):
+        n = 0
+        for s in range(groups[g], groups[g + 1]):
+            n += spans[s, 1] - spans[s, 0]
+        position, lo, m = _percentile_rank(n, q)
+        if percentiles.shape[0] == 0:
+            m = 0
+        top = np.empty(_candidates(m), np.float64)
+        count, threshold = 0, np.nan
+        nan = False
+        for s in range(groups[g], groups[g + 1]):
+            span_max[s], span_sum[s], count, threshold = _strain_extremes_between(
+                indices, rest, cur, spans[s, 0], spans[s, 1], top, count, threshold, m
+            )
+            nan = nan or span_sum[s] != span_sum[s]  # a NaN strain makes the sum NaN (strains are >= -1)
+        if m > 0:
+            percentiles[g] = np.nan if n == 0 or nan else _top_percentile(top, count, m, position, lo)
     speed, energy, fastest, bad = motion_summary(cur, prev, masses, inv_dt)
     return speed, energy, fastest, bad, tether_stretch(anchors, tether_lengths, cur)
+
+
+# Upper percentiles (the report's p99) from one pass over the values: values above a
+# threshold are appended to a buffer of candidates; when it fills, np.partition keeps the m
+# largest and their least becomes the threshold. Most values are turned away by one compare
+# (no branch: the append is undone by not counting it), so this costs about what the strains
+# themselves cost, where a heap of the m largest cost three times that on a hanging cloth
+# (whose strains grow along the constraint order, so most values entered the heap).
+
+
+@kernel(inline="always")
+def _percentile_rank(n, q):
+    """(position, lo, m) of np.percentile(values, q) over n values: the percentile lies at
+    ``position`` in the sorted values, between sorted[lo] and sorted[lo + 1], and the m = n - lo
+    largest values hold both."""
+    position = (n - 1) * (q / 100.0)
+    lo = min(int(np.floor(position)), n - 1)
+    return position, lo, max(n - lo, 0)
+
+
+@kernel(inline="always")
+def _candidates(m):
+    """The size of the candidate buffer for the m largest values (none for m = 0): room for
+    4m (pruned when they are there) and one more block of values."""
+    return 0 if m == 0 else max(4 * m, 64) + STAT_BLOCK
+
+
+@kernel(inline="always")
+def _offer_block(top, count, threshold, m, values, n):
+    """Offer values[0 : n] to the candidates top[0 : count] for the m largest values seen;
+    returns the new (count, threshold). The threshold is NaN until the first prune (every
+    value is a candidate), then the least of the m largest so far: a value not above it cannot
+    be one of them (one equal to it would only stand for an equal one). NaN values are not
+    taken (the callers find them otherwise)."""
+    for i in range(n):
+        v = np.float64(values[i])
+        top[count] = v
+        count += v == v and not v <= threshold
+    if count >= top.shape[0] - STAT_BLOCK:
+        count, threshold = _prune(top, count, m)
+    return count, threshold
+
+
+@kernel(device=True)
+def _select(values, count, k):
+    """Reorder values[0 : count] so that values[k] is the one sorted order puts there, with
+    none larger before it and none smaller after it (Hoare's selection, the middle value as
+    pivot; no NaN among them). Written here rather than np.partition: numba's partition
+    compiles for ~8 s CPU, longer than every other stats kernel together."""
+    lo, hi = 0, count - 1
+    while lo < hi:
+        pivot = values[(lo + hi) // 2]
+        i, j = lo, hi
+        while i <= j:
+            while values[i] < pivot:
+                i += 1
+            while values[j] > pivot:
+                j -= 1
+            if i <= j:
+                values[i], values[j] = values[j], values[i]
+                i += 1
+                j -= 1
+        if j < k:  # values[lo : j + 1] <= pivot <= values[i : hi + 1], values between them == pivot
+            lo = i
+        if k < i:
+            hi = j
+
+
+@kernel(device=True)
+def _prune(top, count, m):
+    """Keep the m largest of top[0 : count] in top[0 : m]; returns (m, the least of them)."""
+    _select(top, count, count - m)
+    for i in range(m):
+        top[i] = top[count - m + i]
+    return m, top[0]
+
+
+@kernel(device=True)
+def _top_percentile(top, count, m, position, lo):
+    """The percentile at ``position`` (see _percentile_rank) from the candidates top[0 : count],
+    which hold the m largest values (count >= m)."""
+    first = count - m
+    _select(top, count, first)
+    below = top[first]  # sorted[lo]
+    if m == 1:
+        return below
+    above = top[first + 1]  # sorted[lo + 1]: the least of the others
+    for i in range(first + 2, count):
+        above = min(above, top[i])
+    t = position - lo
+    difference = above - below
+    # numpy's interpolation, which rounds from the nearer end
+    return above - difference * (1.0 - t) if t >= 0.5 else below + difference * t
 
 
 @kernel
 def upper_percentile(values, q):
     """np.percentile(values, q) (its default "linear" method), computed in float64, for q near
-    100: the m values from the percentile's position up are kept in a min-heap while the array
-    is read once, O(n + m log m) instead of np.percentile's partition of the whole array (which
-    took a fifth of a 128^2 bake's frame for the report's p99 per phase type). NaN if any value
-    is NaN or there are none."""
+    100, in one pass over the values (see _offer_block) instead of np.percentile's partition
+    of the whole array (which took a fifth of a 128^2 bake's frame for the report's p99 per
+    phase type). NaN if any value is NaN or there are none."""
     n = values.shape[0]
     if n == 0:
         return np.nan
-    position = (n - 1) * (q / 100.0)
-    lo = min(int(np.floor(position)), n - 1)
-    m = n - lo  # the m largest values: the smallest of them is sorted[lo]
-    heap = np.empty(m, np.float64)
-    size = 0
-    for i in range(n):
-        v = np.float64(values[i])
-        if v != v:
-            return np.nan
-        if size < m:
-            heap[size] = v
-            j = size
-            size += 1
-            while j > 0 and heap[(j - 1) // 2] > heap[j]:
-                parent = (j - 1) // 2
-                heap[parent], heap[j] = heap[j], heap[parent]
-                j = parent
-        elif v > heap[0]:
-            heap[0] = v
-            j = 0
-            while True:
-                smallest = j
-                for child in range(2 * j + 1, min(2 * j + 3, m)):
-                    if heap[child] < heap[smallest]:
-                        smallest = child
-                if smallest == j:
-                    break
-                heap[smallest], heap[j] = heap[j], heap[smallest]
-                j = smallest
-    below = heap[0]
-    if m == 1:
-        return below
-    above = heap[1] if m == 2 else min(heap[1], heap[2])  # sorted[lo + 1]: the heap's second smallest
-    t = position - lo
-    difference = above - below
-    # numpy's interpolation, which rounds from the nearer end
-    return above - difference * (1.0 - t) if t >= 0.5 else below + difference * t
+    position, lo, m = _percentile_rank(n, q)
+    top = np.empty(_candidates(m), np.float64)
+    count, threshold = 0, np.nan
+    for first in range(0, n, STAT_BLOCK):
+        block = values[first : min(first + STAT_BLOCK, n)]
+        for i in range(block.shape[0]):
+            if block[i] != block[i]:
+                return np.nan
+        count, threshold = _offer_block(top, count, threshold, m, block, block.shape[0])
+    return _top_percentile(top, count, m, position, lo)
