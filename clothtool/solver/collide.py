@@ -22,6 +22,7 @@ mesh sides are decided. Nothing here allocates per iteration: arrays are sized i
 from __future__ import annotations
 
 import functools
+import operator
 import re
 
 import numba
@@ -141,6 +142,17 @@ def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtu
     return tuple(lines), _names_in(tuple(lines))
 
 
+# Every attribute CollideStage.fused_call's values, lines and kernels are made of.
+_FUSED_INPUTS = operator.attrgetter(
+    "alpha0", "alpha1", "alpha_step", "capsule_data", "capsule_index", "capsule_params", "cell_items",
+    "cell_ranges", "cell_start", "cloth_triangles", "continuous", "convex_data", "convex_offsets",
+    "convex_translation", "face_margin", "face_record", "faces", "frames", "grid", "kernel", "mass_scale",
+    "mesh_end", "mesh_faces", "mesh_start", "mesh_world", "meters_per_unit", "owners", "plane_end", "plane_world",
+    "pose_mesh", "sphere_colliders", "sphere_data", "sphere_end", "sphere_params", "sphere_start", "sphere_world",
+    "triangle_data", "triangle_params", "triangles", "virtual", "virtual_kernel", "virtual_weights"
+)
+
+
 class CollideStage(Stage):
     """Collision with ``solver.environment.colliders`` (see the module docstring).
 
@@ -230,6 +242,8 @@ class CollideStage(Stage):
         self._layouts: dict[str, tuple] = {}  # see _same_layout
         self._copied: tuple = (None, None)  # the ColliderArrays the frame's copies were made from
         self.pose_mesh = np.zeros(1, np.bool_)
+        self._fused: FusedCall | None = None  # see fused_call
+        self._fused_inputs: tuple = ()
 
     def collider_sample_spacing(self) -> float:
         """The spacing of mesh colliders' edge samples for this cloth (meshfaces.sample_spacing),
@@ -264,13 +278,20 @@ class CollideStage(Stage):
             self.alpha_step = self.alpha1 - self.alpha0
         terms = self.solver.frame_terms
         if terms is not None:
-            self.frames = terms.pose_pairs  # the cloth frame's poses at each iteration's start and end
+            # the cloth frame's poses at each iteration's start and end, copied into the array
+            # of the last frame (the same object every frame: fused_call's values stand)
+            if self.frames.shape != terms.pose_pairs.shape or not self._frames_moved:
+                self.frames = np.empty(terms.pose_pairs.shape)
+            np.copyto(self.frames, terms.pose_pairs)
         elif self.frames.shape[0] != k or self._frames_moved:
             self.frames = np.zeros((k, 8, 3))  # no track: the identity, the same every frame
             self.frames[:, 0:3] = self.frames[:, 4:7] = np.eye(3)
         self._frames_moved = terms is not None
         # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
-        self.pose_mesh = np.zeros(k, np.bool_)
+        if self.pose_mesh.shape[0] != k:
+            self.pose_mesh = np.zeros(k, np.bool_)
+        else:
+            self.pose_mesh[:] = False
         if self.mesh_world[0].shape[0]:
             if not self.mesh_still:
                 self.pose_mesh[:] = True
@@ -325,11 +346,12 @@ class CollideStage(Stage):
 
     def _copy_spheres(self, start: ColliderArrays, end: ColliderArrays) -> None:
         s = start.sphere_center.shape[0]
-        worlds = tuple(_reuse(w, (s, 4)) for w in self.sphere_world)
+        worlds = self.sphere_world
+        if worlds[0].shape[0] != s:
+            worlds = self.sphere_world = (np.zeros((s, 4), self.real), np.zeros((s, 4), self.real))
         for world, arrays in zip(worlds, (start, end)):
             world[:, :3] = arrays.sphere_center
             world[:, 3] = arrays.sphere_radius
-        self.sphere_world = worlds
         if self._same_layout("spheres", start, _SPHERE_LAYOUT):
             return
         self.sphere_start = _reuse(self.sphere_start, (s, 4))
@@ -448,6 +470,16 @@ class CollideStage(Stage):
             self._mesh_packed = self.mesh_still
 
     def fused_call(self) -> FusedCall:
+        # every attribute the call is made of: while each is the same object as when the last
+        # call was made (a usual frame: begin_frame refills the arrays in place), it stands
+        inputs = _FUSED_INPUTS(self)
+        fused = self._fused
+        if fused is not None and all(map(operator.is_, inputs, self._fused_inputs)):
+            return fused
+        self._fused, self._fused_inputs = self._make_fused_call(), inputs
+        return self._fused
+
+    def _make_fused_call(self) -> FusedCall:
         lines, used = _fused_lines(
             self.mesh_world[0].shape[0] > 0, self.plane_end.shape[0] > 0, self.convex_data.shape[0] > 0,
             self.virtual.shape[0] > 0, self.faces.shape[0] > 0, self.mesh_faces and self.triangle_data.shape[0] > 0,

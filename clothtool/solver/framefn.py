@@ -194,20 +194,42 @@ class FusedFrame:
     def __init__(self) -> None:
         self.source = ""
         self.function: object = None
+        # the last frame's calls, their shapes (_call_shape) and the shape of them all: a
+        # stage that gives the very FusedCall of the last frame (its values stand) is not
+        # looked at again, and calls of the last frame's shapes need no _SHAPES look-up
+        self._calls: list[FusedCall] = []
+        self._call_shapes: list[tuple] = []
+        self._shape: tuple | None = None
 
     def prepare(self, stages) -> tuple[object, list, bool]:
         """(function, argument values, True when the function is new in this solver)."""
         calls = [stage.fused_call() for stage in stages]
-        # the kernels themselves, not their ids: the key keeps them alive, so no id is reused
-        shape = tuple((call.lines, tuple(call.args), tuple(call.kernels.values())) for call in calls)
-        known = _SHAPES.get(shape)
-        if known is None:
-            source, _ = frame_source(calls)
-            known = _SHAPES[shape] = (source, compile_frame(source))
+        last_calls, last_shapes = self._calls, self._call_shapes
+        if len(calls) == len(last_calls):
+            shapes = [last if call is old else _call_shape(call) for call, old, last in zip(calls, last_calls, last_shapes)]
+        else:
+            shapes = [_call_shape(call) for call in calls]
+        if shapes != last_shapes or self._shape is None:  # equal shapes: the same function
+            # the kernels themselves, not their ids: the key keeps them alive, so no id is reused
+            shape = tuple(shapes)
+            known = _SHAPES.get(shape)
+            if known is None:
+                source, _ = frame_source(calls)
+                known = _SHAPES[shape] = (source, compile_frame(source))
+            self._shape = shape
+            new = known[0] is not self.source
+            self.source, self.function = known
+        else:
+            new = False
+        self._calls, self._call_shapes = calls, shapes
         values = [value for call in calls for value in call.args.values()]
-        new = known[0] is not self.source
-        self.source, self.function = known
         return self.function, values, new
+
+
+def _call_shape(call: FusedCall) -> tuple:
+    """What of ``call`` its part of the frame function's source depends on: its lines, the
+    names of its values and its kernels."""
+    return call.lines, tuple(call.args), tuple(call.kernels.values())
 
 
 # (frame function, argument types) -> its callee table, in this process
