@@ -17,6 +17,13 @@ PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
 PERCENTILE = 99.0  # the report's upper strain percentile, "p99"
 
 
+def motion_figures(row: list) -> tuple:
+    """frame_summary's motion row as (max speed, kinetic energy, fastest particle, first
+    non-finite particle, tether stretch)."""
+    speed, energy, fastest, bad, stretch = row
+    return speed, energy, int(fastest), int(bad), stretch
+
+
 class ClothMeter:
     def __init__(self, solver):
         self.solver = solver
@@ -39,6 +46,11 @@ class ClothMeter:
         self.groups = np.cumsum([0] + [len(self.spans[label]) for label in self.group_labels]).astype(np.int64)
         self.percentiles = np.zeros(len(self.group_labels))  # p99 strain per label, when asked for
         self._no_percentiles = self.percentiles[:0]
+        # frame_summary's one member: every particle, tether and group
+        self.members = np.array([0, len(self.group_labels)], np.int64)
+        self.particles = np.array([0, model.particle_count], np.int64)
+        self.tethers = np.array([0, model.tether_anchor.shape[0]], np.int64)
+        self.motion = np.zeros((1, 5))  # max speed, kinetic energy, fastest, first non-finite, tether stretch
         self._span_counts = (self.span_bounds[:, 1] - self.span_bounds[:, 0]).tolist()
         self._span_per_label = len(set(self.span_labels)) == len(self.span_labels)
         self.has_tethers = model.has_tethers
@@ -52,18 +64,20 @@ class ClothMeter:
             warm_up_mesh_depths()
         if shape_penetration:
             warm_up_round_cone_depths()
-        self.summarise(1.0, percentiles, self.groups[:1])
+        self.summarise(1.0, percentiles)
 
-    def summarise(self, inv_h: float, percentiles: bool, groups: np.ndarray | None = None) -> tuple:
+    def summarise(self, inv_h: float, percentiles: bool) -> tuple:
         """frame_summary over this cloth (strain extremes per span into span_max and span_sum,
         with percentiles the p99 strain per label into ``percentiles``); returns its (max
         speed, kinetic energy, fastest particle, first non-finite particle, tether stretch)."""
         model, state = self.solver.model, self.solver.state
-        return frame_summary(
-            model.constraint_indices, model.constraint_rest_length, self.span_bounds, self.groups if groups is None else groups,
-            PERCENTILE, state.cur, state.prev, model.mass, inv_h, model.tether_anchor, model.tether_rest_length,
-            self.span_max, self.span_sum, self.percentiles if percentiles else self._no_percentiles,
+        frame_summary(
+            model.constraint_indices, model.constraint_rest_length, self.span_bounds, self.groups, self.members,
+            self.particles, self.tethers, PERCENTILE, state.cur, state.prev, model.mass, inv_h, model.tether_anchor,
+            model.tether_rest_length, self.span_max, self.span_sum, self.percentiles if percentiles else self._no_percentiles,
+            self.motion,
         )
+        return motion_figures(self.motion[0].tolist())
 
     def measure(self, h: float, percentiles: bool, time: float | None = None) -> dict:
         """Stats after the last iteration of a frame of iteration length ``h`` ending at
@@ -71,20 +85,24 @@ class ClothMeter:
         in one compiled call (frame_summary); with percentiles the strain per phase type
         carries its 99th percentile too."""
         model = self.solver.model
-        to_m = model.units_to_meters
-        speed, energy, fastest, bad, stretch = self.summarise(1.0 / h, percentiles)
-        strain = self.strain_from_spans()
-        if percentiles:
-            for label, p99 in zip(self.group_labels, self.percentiles.tolist()):
-                strain[label]["p99"] = p99
-        stats = self.summary_stats(strain, speed, energy, fastest, bad, stretch)
+        stats = self.frame_stats(self.summarise(1.0 / h, percentiles), percentiles)
         if time is not None and self.colliders is not None:
             faces = face_penetration(
-                self.solver.world_points(), model.triangles, self.colliders(time), to_m, float(model.material.thickness)
+                self.solver.world_points(), model.triangles, self.colliders(time), model.units_to_meters,
+                float(model.material.thickness),
             )
             stats["max_penetration"] = max(faces.depth, 0.0)
             stats["faces_beyond_thickness"] = faces.faces_beyond
         return stats
+
+    def frame_stats(self, motion: tuple, percentiles: bool) -> dict:
+        """The stats dict from frame_summary's figures: its motion figures (motion_figures)
+        and what it left in span_max, span_sum and, with percentiles, ``percentiles``."""
+        strain = self.strain_from_spans()
+        if percentiles:
+            for label, p99 in zip(self.group_labels, self.percentiles.tolist()):
+                strain[label]["p99"] = p99
+        return self.summary_stats(strain, *motion)
 
     def summary_stats(self, strain: dict, speed, energy, fastest, bad, stretch) -> dict:
         """The frame's stats dict from the strain per phase type and frame_summary's (or

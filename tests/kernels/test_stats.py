@@ -210,6 +210,19 @@ def test_upper_percentile_nan():
     assert upper_percentile(f32([0.25]), 99.0) == 0.25
 
 
+def summary_of_one(indices, rest, spans, groups, q, cur, prev, masses, inv_dt, anchors, lengths, span_max, span_sum,
+                   percentiles):
+    """frame_summary of one cloth (one member owning everything); returns its motion row as
+    (max speed, energy, fastest, first non-finite, tether stretch)."""
+    motion = np.full((1, 5), np.nan)
+    members = np.array([0, groups.shape[0] - 1], np.int64)
+    frame_summary(indices, rest, spans, groups, members, np.array([0, cur.shape[0]], np.int64),
+                  np.array([0, anchors.shape[0]], np.int64), q, cur, prev, masses, inv_dt, anchors, lengths, span_max,
+                  span_sum, percentiles, motion)
+    speed, energy, fastest, bad, stretch = motion[0].tolist()
+    return speed, energy, int(fastest), int(bad), stretch
+
+
 def groups_of(rng, spans):
     """Random group offsets over ``spans`` spans: 0 = g0 <= g1 <= ... = spans."""
     cuts = np.sort(rng.integers(0, spans + 1, rng.integers(0, 4)))
@@ -234,8 +247,8 @@ def test_frame_summary_is_the_separate_kernels_in_one_call(seed, n, c, spans, k,
     lengths = f32(rng.uniform(0.0, 1.0, k * n))
     span_max, span_sum = np.full(spans, np.nan), np.full(spans, np.nan)
     percentiles = np.full(groups.shape[0] - 1 if with_percentiles else 0, -7.0)
-    got = frame_summary(indices, rest, cuts, groups, q, cur, prev, masses, INV_DT, anchors, lengths, span_max, span_sum,
-                        percentiles)
+    got = summary_of_one(indices, rest, cuts, groups, q, cur, prev, masses, INV_DT, anchors, lengths, span_max, span_sum,
+                         percentiles)
     separate = (*motion_summary(cur, prev, masses, INV_DT), tether_stretch(anchors, lengths, cur))
     assert got == separate
     for s, (first, last) in enumerate(cuts):
@@ -273,8 +286,8 @@ def test_frame_summary_percentiles_over_many_blocks(seed, c, spans, q, order):
     cuts = np.sort(np.concatenate([[0, c], rng.integers(0, c + 1, 2 * spans - 2)])).reshape(-1, 2).astype(np.int64)
     groups = np.array([0, spans], np.int64)
     span_max, span_sum, percentiles = np.zeros(spans), np.zeros(spans), np.zeros(1)
-    frame_summary(indices, rest, cuts, groups, q, cur, prev, np.ones(n), INV_DT, anchors := np.zeros(0, np.int32),
-                  np.zeros(0, np.float32), span_max, span_sum, percentiles)
+    summary_of_one(indices, rest, cuts, groups, q, cur, prev, np.ones(n), INV_DT, anchors := np.zeros(0, np.int32),
+                   np.zeros(0, np.float32), span_max, span_sum, percentiles)
     strains = np.concatenate([strain_of(indices[a:b], rest[a:b], cur) for a, b in cuts])
     assert percentiles[0] == upper_percentile(strains, q)
     assert percentiles[0] == pytest.approx(np.percentile(strains.astype(np.float64), q), rel=1e-12, abs=1e-15)
@@ -286,7 +299,89 @@ def test_frame_summary_percentile_of_a_nan_strain_is_nan():
     cur[2, 0] = np.nan
     indices = np.array([[0, 1], [1, 2], [2, 3]], np.int32)
     percentiles = np.zeros(2)
-    frame_summary(indices, f32([1.0, 1.0, 1.0]), np.array([[0, 1], [1, 3]], np.int64), np.array([0, 1, 2], np.int64), 99.0,
-                  cur, prev, np.ones(4), INV_DT, np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(2), np.zeros(2),
-                  percentiles)
+    summary_of_one(indices, f32([1.0, 1.0, 1.0]), np.array([[0, 1], [1, 3]], np.int64), np.array([0, 1, 2], np.int64), 99.0,
+                   cur, prev, np.ones(4), INV_DT, np.zeros(0, np.int32), np.zeros(0, np.float32), np.zeros(2), np.zeros(2),
+                   percentiles)
     assert np.isfinite(percentiles[0]) and np.isnan(percentiles[1])
+
+
+@settings(max_examples=15)
+@given(seed=seeds, members=st.integers(1, 5), with_percentiles=st.booleans())
+def test_frame_summary_of_members_is_each_members_own(seed, members, with_percentiles):
+    """Several cloths in one call (a merged group's stats): each member's figures have the
+    bits of its own call, its arrays concatenated with indices counting from its first
+    particle, its particles rows of one state after some rows of no member."""
+    rng = np.random.default_rng(seed)
+    lead = int(rng.integers(0, 3))  # rows before the first member
+    sizes = rng.integers(1, 30, members)
+    cur, prev = particles(rng, lead + int(sizes.sum()), speed=0.01)
+    masses = rng.uniform(0.001, 0.01, cur.shape[0])
+    parts = []  # per member: indices, rest, spans, groups, anchors, lengths
+    for n in sizes:
+        c, spans, k = int(rng.integers(0, 60)), int(rng.integers(0, 4)), int(rng.integers(0, 3))
+        parts.append((np.ascontiguousarray(rng.integers(0, n, (c, 2)), np.int32), f32(rng.uniform(0.0, 1.0, c)),
+                      np.sort(rng.integers(0, c + 1, 2 * spans)).reshape(-1, 2).astype(np.int64), groups_of(rng, spans),
+                      np.ascontiguousarray(rng.integers(0, n, k * n), np.int32), f32(rng.uniform(0.0, 1.0, k * n))))
+    offsets = lambda counts: np.cumsum([0, *counts]).astype(np.int64)  # noqa: E731
+    c_base, s_base = offsets(p[0].shape[0] for p in parts), offsets(p[2].shape[0] for p in parts)
+    g_base = offsets(p[3].shape[0] - 1 for p in parts)
+    spans = np.concatenate([np.zeros((0, 2), np.int64)] + [p[2] + c_base[j] for j, p in enumerate(parts)])
+    groups = np.concatenate([p[3][:-1] + s_base[j] for j, p in enumerate(parts)] + [s_base[-1:]])
+    span_max, span_sum = np.full(s_base[-1], np.nan), np.full(s_base[-1], np.nan)
+    percentiles = np.full(g_base[-1] if with_percentiles else 0, np.nan)
+    motion = np.full((members, 5), np.nan)
+    frame_summary(np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]), spans, groups, g_base,
+                  lead + offsets(sizes), offsets(p[4].shape[0] for p in parts), 99.0, cur, prev, masses, INV_DT,
+                  np.concatenate([p[4] for p in parts]), np.concatenate([p[5] for p in parts]), span_max, span_sum,
+                  percentiles, motion)
+    first = lead + offsets(sizes)
+    for j, (indices, rest, own_spans, own_groups, anchors, lengths) in enumerate(parts):
+        rows = slice(first[j], first[j + 1])
+        own_max, own_sum = np.full(own_spans.shape[0], np.nan), np.full(own_spans.shape[0], np.nan)
+        own_percentiles = np.full(own_groups.shape[0] - 1 if with_percentiles else 0, np.nan)
+        want = summary_of_one(indices, rest, own_spans, own_groups, 99.0, cur[rows], prev[rows], masses[rows], INV_DT, anchors,
+                              lengths, own_max, own_sum, own_percentiles)
+        speed, energy, fastest, bad, stretch = motion[j].tolist()
+        assert (speed, energy, int(fastest), int(bad), stretch) == want
+        np.testing.assert_array_equal(span_max[s_base[j] : s_base[j + 1]], own_max)
+        np.testing.assert_array_equal(span_sum[s_base[j] : s_base[j + 1]], own_sum)
+        if with_percentiles:
+            np.testing.assert_array_equal(percentiles[g_base[j] : g_base[j + 1]], own_percentiles)
+
+
+@settings(max_examples=40)
+@given(seed=seeds, count=st.integers(1, 700), ties=st.booleans(), m=st.integers(1, 40))
+def test_selection_helpers_match_reference(seed, count, ties, m):
+    """The percentile's selection (_select), pruning (_prune), candidate offers (_offer_block)
+    and interpolation (_top_percentile) against numpy sorts on random values."""
+    from clothtool.solver.kernels.stats import _offer_block, _prune, _select, _top_percentile
+
+    rng = np.random.default_rng(seed)
+    values = rng.normal(0.0, 1.0, count)
+    if ties:
+        values = np.round(values, 1)
+    k = int(rng.integers(0, count))
+    selected = values.copy()
+    _select(selected, count, k)
+    want = values.copy()
+    ref._select(want, count, k)
+    assert selected[k] == want[k]
+    assert (selected[:k] <= selected[k]).all() and (selected[k + 1 :] >= selected[k]).all()
+    assert np.array_equal(np.sort(selected), np.sort(values))
+
+    m = min(m, count)
+    got_top, want_top = values.copy(), values.copy()
+    assert _prune(got_top, count, m) == ref._prune(want_top, count, m)
+    assert np.array_equal(np.sort(got_top[:m]), want_top[:m])
+
+    position, lo, m = ref._percentile_rank(count, 99.0)
+    assert _top_percentile(values.copy(), count, m, position, lo) == ref._top_percentile(values.copy(), count, m, position, lo)
+
+    size = ref._candidates(m)
+    got_buffer, want_buffer = np.zeros(size), np.zeros(size)
+    block = f32(np.concatenate([values[:256], [np.nan]])) if count > 3 else f32(values)
+    threshold = float(np.median(values))
+    got = _offer_block(got_buffer, 0, threshold, m, block, block.shape[0])
+    want = ref._offer_block(want_buffer, 0, threshold, m, block, block.shape[0])
+    assert got[0] == want[0] and (got[1] == want[1] or np.isnan(got[1]) and np.isnan(want[1]))
+    assert np.array_equal(np.sort(got_buffer[: got[0]]), np.sort(want_buffer[: want[0]]))

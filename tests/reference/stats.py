@@ -82,7 +82,8 @@ def _strain_extremes_between(indices, rest, cur, first, last):
 
 def frame_summary(indices, rest, spans, groups, q, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max, span_sum,
                   percentiles):
-    """strain_extremes per span into span_max, span_sum; upper_percentile(q) of the strains of
+    """One cloth's frame_summary (the kernel's with one member owning everything):
+    strain_extremes per span into span_max, span_sum; upper_percentile(q) of the strains of
     spans groups[g] .. groups[g + 1] into percentiles[g] when percentiles is not empty;
     returns motion_summary's four values and tether_stretch."""
     spans = np.asarray(spans)
@@ -105,3 +106,65 @@ def upper_percentile(values, q):
     if values.size == 0 or np.isnan(values).any():
         return np.nan
     return float(np.percentile(values, q))
+
+
+def _percentile_rank(n, q):
+    """(position, lo, m): np.percentile's position over n sorted values, the index below it,
+    and how many values lie from there up."""
+    position = (n - 1) * (q / 100.0)
+    lo = min(int(np.floor(position)), n - 1)
+    return position, lo, max(n - lo, 0)
+
+
+def _candidates(m):
+    """The candidate buffer's size for the m largest values: 4m (at least 64) and a block."""
+    return 0 if m == 0 else max(4 * m, 64) + 256
+
+
+def _select(values, count, k):
+    """values[0 : count] reordered with the k-th smallest at k (np.partition's order)."""
+    values[:count] = np.partition(values[:count], k)
+
+
+def _prune(top, count, m):
+    """The m largest of top[0 : count] into top[0 : m]; returns (m, their least)."""
+    kept = np.sort(top[:count])[count - m :]
+    top[:m] = kept
+    return m, kept[0]
+
+
+def _offer_block(top, count, threshold, m, values, n):
+    """The non-NaN values[0 : n] not at or below ``threshold`` (every one while it is NaN)
+    appended to top[count:]; pruned to the m largest when the buffer is full but a block."""
+    v = np.asarray(values[:n], np.float64)
+    taken = v[~np.isnan(v) & ~(v <= threshold)]
+    top[count : count + taken.size] = taken
+    count += taken.size
+    if count >= top.shape[0] - 256:
+        count, threshold = _prune(top, count, m)
+    return count, threshold
+
+
+def _top_percentile(top, count, m, position, lo):
+    """np.percentile's linear interpolation between the two least of the m largest of
+    top[0 : count] (sorted[lo] and sorted[lo + 1])."""
+    kept = np.sort(top[:count])[count - m :]
+    below = kept[0]
+    if m == 1:
+        return below
+    above = kept[1]
+    t = position - lo
+    return above - (above - below) * (1.0 - t) if t >= 0.5 else below + (above - below) * t
+
+
+def _group_strains(indices, rest, spans, groups, g, q, cur, span_max, span_sum, percentiles):
+    """frame_summary's strain figures of group g (its spans' extremes; its percentile when
+    percentiles is not empty)."""
+    spans = np.asarray(spans)
+    strains = []
+    for s in range(groups[g], groups[g + 1]):
+        first, last = spans[s]
+        span_max[s], span_sum[s] = _strain_extremes_between(indices, rest, cur, first, last)
+        strains.append(constraint_strain(np.asarray(indices)[first:last], np.asarray(rest)[first:last], cur))
+    if len(percentiles):
+        percentiles[g] = upper_percentile(np.concatenate([np.zeros(0), *strains]), q)

@@ -176,33 +176,54 @@ def strain_extremes(indices, rest, cur):
 
 
 @kernel(fastmath={"contract", "reassoc"})
-def frame_summary(indices, rest, spans, groups, q, cur, prev, masses, inv_dt, anchors, tether_lengths, span_max,
-                  span_sum, percentiles):
-    """A frame's stats in one call: span_max[s], span_sum[s] = strain_extremes over the
-    constraints spans[s, 0] .. spans[s, 1]; percentiles[g] (when given: one per group, else
-    empty) = upper_percentile(strains, q) over the strains of spans groups[g] .. groups[g + 1],
-    as if they were one array (the strains are offered to the candidates as they are
-    measured, none is stored); returns motion_summary's (max speed, kinetic energy, fastest
-    particle, first non-finite particle) and tether_stretch (0 without tethers)."""
-    for g in range(groups.shape[0] - 1):
-        n = 0
-        for s in range(groups[g], groups[g + 1]):
-            n += spans[s, 1] - spans[s, 0]
-        position, lo, m = _percentile_rank(n, q)
-        if percentiles.shape[0] == 0:
-            m = 0
-        top = np.empty(_candidates(m), np.float64)
-        count, threshold = 0, np.nan
-        nan = False
-        for s in range(groups[g], groups[g + 1]):
-            span_max[s], span_sum[s], count, threshold = _strain_extremes_between(
-                indices, rest, cur, spans[s, 0], spans[s, 1], top, count, threshold, m
-            )
-            nan = nan or span_sum[s] != span_sum[s]  # a NaN strain makes the sum NaN (strains are >= -1)
-        if m > 0:
-            percentiles[g] = np.nan if n == 0 or nan else _top_percentile(top, count, m, position, lo)
-    speed, energy, fastest, bad = motion_summary(cur, prev, masses, inv_dt)
-    return speed, energy, fastest, bad, tether_stretch(anchors, tether_lengths, cur)
+def frame_summary(indices, rest, spans, groups, members, particles, tethers, q, cur, prev, masses, inv_dt, anchors,
+                  tether_lengths, span_max, span_sum, percentiles, motion):
+    """A frame's stats of one cloth or of several (the members of a merged solve) in one call.
+
+    Member j owns particles particles[j] .. particles[j + 1] of cur, prev and masses, tether
+    slots tethers[j] .. tethers[j + 1] of anchors and tether_lengths, and groups members[j] ..
+    members[j + 1]; group g is one phase type's constraint spans groups[g] .. groups[g + 1],
+    span s the constraints spans[s, 0] .. spans[s, 1] of indices and rest. Constraint and
+    tether indices count from the member's first particle (a member's arrays are those it
+    has when measured alone, concatenated).
+
+    span_max[s], span_sum[s] = strain_extremes over span s; percentiles[g] (when given: one
+    per group, else empty) = upper_percentile(strains, q) over group g's strains as if they
+    were one array (offered to the candidates as they are measured, none stored);
+    motion[j] = member j's motion_summary (max speed, kinetic energy, fastest particle,
+    first non-finite particle) and tether_stretch (0 without tethers). Each figure has the
+    bits the member's own call gives."""
+    for j in range(members.shape[0] - 1):
+        own, own_prev = cur[particles[j] : particles[j + 1]], prev[particles[j] : particles[j + 1]]
+        for g in range(members[j], members[j + 1]):
+            _group_strains(indices, rest, spans, groups, g, q, own, span_max, span_sum, percentiles)
+        speed, energy, fastest, bad = motion_summary(own, own_prev, masses[particles[j] : particles[j + 1]], inv_dt)
+        motion[j, 0] = speed
+        motion[j, 1] = energy
+        motion[j, 2] = fastest
+        motion[j, 3] = bad
+        motion[j, 4] = tether_stretch(anchors[tethers[j] : tethers[j + 1]], tether_lengths[tethers[j] : tethers[j + 1]], own)
+
+
+@kernel(device=True, fastmath={"contract", "reassoc"})
+def _group_strains(indices, rest, spans, groups, g, q, cur, span_max, span_sum, percentiles):
+    """frame_summary's strain figures of group g."""
+    n = 0
+    for s in range(groups[g], groups[g + 1]):
+        n += spans[s, 1] - spans[s, 0]
+    position, lo, m = _percentile_rank(n, q)
+    if percentiles.shape[0] == 0:
+        m = 0
+    top = np.empty(_candidates(m), np.float64)
+    count, threshold = 0, np.nan
+    nan = False
+    for s in range(groups[g], groups[g + 1]):
+        span_max[s], span_sum[s], count, threshold = _strain_extremes_between(
+            indices, rest, cur, spans[s, 0], spans[s, 1], top, count, threshold, m
+        )
+        nan = nan or span_sum[s] != span_sum[s]  # a NaN strain makes the sum NaN (strains are >= -1)
+    if m > 0:
+        percentiles[g] = np.nan if n == 0 or nan else _top_percentile(top, count, m, position, lo)
 
 
 # Upper percentiles (the report's p99) from one pass over the values: values above a
