@@ -141,7 +141,7 @@ def constraint_strain(indices, rest, cur, strain):
             strain[lo + i] = block_strain[i]
 
 
-@kernel(device=True, fastmath={"contract", "reassoc"})
+@kernel(inline="always", fastmath={"contract", "reassoc"})
 def _strain_extremes_between(indices, rest, cur, first, last, top, count, threshold, m):
     """(max strain, sum of strains, count, threshold) over constraints first .. last (see
     strain_extremes); with m > 0 each strain is also offered to the candidates ``top`` of the
@@ -205,7 +205,7 @@ def frame_summary(indices, rest, spans, groups, members, particles, tethers, q, 
         motion[j, 4] = tether_stretch(anchors[tethers[j] : tethers[j + 1]], tether_lengths[tethers[j] : tethers[j + 1]], own)
 
 
-@kernel(device=True, fastmath={"contract", "reassoc"})
+@kernel(inline="always", fastmath={"contract", "reassoc"})
 def _group_strains(indices, rest, spans, groups, g, q, cur, span_max, span_sum, percentiles):
     """frame_summary's strain figures of group g."""
     n = 0
@@ -267,7 +267,7 @@ def _offer_block(top, count, threshold, m, values, n):
     return count, threshold
 
 
-@kernel(device=True)
+@kernel(inline="always")
 def _select(values, count, k):
     """Reorder values[0 : count] so that values[k] is the one sorted order puts there, with
     none larger before it and none smaller after it (Hoare's selection, the middle value as
@@ -292,7 +292,7 @@ def _select(values, count, k):
             hi = j
 
 
-@kernel(device=True)
+@kernel(inline="always")
 def _prune(top, count, m):
     """Keep the m largest of top[0 : count] in top[0 : m]; returns (m, the least of them)."""
     _select(top, count, count - m)
@@ -301,7 +301,7 @@ def _prune(top, count, m):
     return m, top[0]
 
 
-@kernel(device=True)
+@kernel(inline="always")
 def _top_percentile(top, count, m, position, lo):
     """The percentile at ``position`` (see _percentile_rank) from the candidates top[0 : count],
     which hold the m largest values (count >= m)."""
