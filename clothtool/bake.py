@@ -24,11 +24,11 @@ from clothtool.profile import StageProfiler
 from clothtool.scene.scene import Scene
 from clothtool.scene.tracks import quat_to_matrices
 from clothtool.sim.integrators import Integrator, check_capabilities, integrator_spec
+from clothtool.solver.cache_rows import in_vertex_order
 from clothtool.solver.environment import AIR_DENSITY, Environment
 from clothtool.solver.frame import FramePath, PoseRows
 from clothtool.solver.groupmeter import make_meters
 from clothtool.solver.iteration import FramePlan, iteration_offsets
-from clothtool.solver.kernels.rows import gather_xyz
 from clothtool.solver.model import build_model
 from clothtool.workload import iterations_per_frame
 
@@ -491,22 +491,6 @@ def _with_colliders(scene: Scene, frame: FrameData) -> FrameData:
     )
 
 
-def _points_in_vertex_order(solvers: list[Integrator]) -> tuple[np.ndarray, ...]:
-    """Each cloth's world points as the cache presents them: in its mesh's vertex order."""
-    return tuple(_cache_rows(s, s.world_points()) for s in solvers)
-
-
-def _cache_rows(solver: Integrator, values: np.ndarray) -> np.ndarray:
-    """f32 (n,3) per-particle ``values`` as a cache stores them: in the mesh's vertex order,
-    gathered and converted in one pass (the writers take float32)."""
-    order = solver.model.fabric.vertex_particle
-    if order is None:
-        return np.ascontiguousarray(values, np.float32)
-    rows = np.empty((order.shape[0], 3), np.float32)
-    gather_xyz(values, order, rows)
-    return rows
-
-
 def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> FrameData:
     velocities = None
     if "velocities" in attributes:
@@ -514,22 +498,23 @@ def _initial_frame(scene: Scene, solvers: list[Integrator], attributes) -> Frame
         for solver, cloth in zip(solvers, scene.cloths):
             v = np.zeros((solver.model.particle_count, 3), np.float32)
             v[solver.model.inv_mass > 0] = cloth.initial_velocity
-            velocities.append(_cache_rows(solver, v))
+            velocities.append(in_vertex_order(solver.model, v))
         velocities = tuple(velocities)
     stats = None
     if "stats" in attributes:
         stats = tuple({field: 0.0 for field in STATS_FIELDS} for _ in solvers)
-    return FrameData(scene.start_frame, _points_in_vertex_order(solvers), velocities, stats)
+    return FrameData(scene.start_frame, tuple(solver.cache_rows(None)[0] for solver in solvers), velocities, stats)
 
 
 def _frame_data(frame, solvers, plans, per_cloth, attributes) -> FrameData:
-    velocities = None
-    if "velocities" in attributes:
-        velocities = tuple(_cache_rows(s, s.world_velocities(p.h)) for s, p in zip(solvers, plans))
+    with_velocities = "velocities" in attributes
+    rows = [s.cache_rows(p.h if with_velocities else None) for s, p in zip(solvers, plans)]
     stats = None
     if "stats" in attributes:
         stats = tuple(_frame_stats_fields(per_cloth[s.model.name]) for s in solvers)
-    return FrameData(frame, _points_in_vertex_order(solvers), velocities, stats)
+    return FrameData(
+        frame, tuple(points for points, _ in rows), tuple(v for _, v in rows) if with_velocities else None, stats
+    )
 
 
 def plan(scene: Scene, calibration_frames: int = 2, calibration_seconds: float = 2.0) -> dict:

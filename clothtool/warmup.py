@@ -27,7 +27,7 @@ from clothtool.io.extent_kernel import frame_extent
 from clothtool.io.h5chunks import GzipChunkEncoder
 from clothtool.loading import load_scene
 from clothtool.sim.integrators import CAPABILITIES, integrator_spec
-from clothtool.solver.kernels.rows import gather_xyz
+from clothtool.solver.kernels.rows import gather_xyz, vertex_rows
 
 GRID = 6  # particles per side of the warm-up cloths
 
@@ -211,6 +211,8 @@ def warm_up_kernels(
     frame_extent(np.zeros((1, 3), np.float32))
     for precision in (np.float32, np.float64):
         gather_xyz(np.zeros((1, 3), precision), np.zeros(1, np.int64), np.zeros((1, 3), np.float32))
+        state = np.zeros((1, 4), precision)
+        vertex_rows(state, state, np.zeros(1, np.int64), precision(1.0), np.zeros((1, 3), np.float32), np.zeros((1, 3), np.float32))
     seconds = time.perf_counter() - start
     report("cache frames (HDF5 gzip chunks, extents, vertex order)", seconds)
     return total + seconds

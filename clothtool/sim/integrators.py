@@ -59,6 +59,11 @@ class Integrator(Protocol):
 
     def world_velocities(self, h: float) -> np.ndarray: ...
 
+    def cache_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """What a cache frame stores: f32 (n,3) world points and, given the last iteration's
+        length h, world velocities, in the mesh's vertex order (clothtool.solver.cache_rows
+        makes them from world_points and world_velocities)."""
+
 
 # Capabilities a scene can ask for, with the scene key that asks.
 CAPABILITIES = {

@@ -9,6 +9,7 @@ import numpy as np
 
 from clothtool.profile import JIT_STAGE, StageProfiler
 from clothtool.settings import SolverConfig
+from clothtool.solver.cache_rows import cache_rows
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import (
     PLANNED_CHUNK,
@@ -23,7 +24,7 @@ from clothtool.solver.frame import (
 )
 from clothtool.solver.framefn import FusedFrame, compile_for
 from clothtool.solver.iteration import FramePlan, Iteration
-from clothtool.solver.kernels.rows import copy_xyz, xyz_velocity
+from clothtool.solver.kernels.rows import copy_xyz, gather_xyz, vertex_rows, xyz_velocity
 from clothtool.solver.logstiffness import damping_scale
 from clothtool.solver.model import ClothModel
 from clothtool.solver.pipeline import build_stages
@@ -275,6 +276,11 @@ class ClothSolver:
         copy_xyz(none, np.empty((0, 3), none.dtype))
         if self.track is None:  # a cloth in a moving frame (a track) gets its velocities from its poses
             xyz_velocity(none, none, none.dtype.type(1.0), np.empty((0, 3), np.float32))
+            order = self.model.fabric.vertex_particle
+            if order is not None:  # cache_rows' kernels
+                no_rows = np.empty((0, 3), np.float32)
+                gather_xyz(none, order[:0], no_rows)
+                vertex_rows(none, none, order[:0], none.dtype.type(1.0), no_rows, no_rows)
 
     def iterate(self, iteration: Iteration) -> None:
         if self.sleep.asleep:
@@ -308,6 +314,21 @@ class ClothSolver:
             copy_xyz(cur, points)
             return points
         return self.history.now.to_world(cur[:, :3]).astype(cur.dtype)
+
+    def cache_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """See Integrator.cache_rows. Without a moving frame, straight from the state in one
+        pass (kernels.rows.vertex_rows: the same bits, no particle-order copies between)."""
+        order = self.model.fabric.vertex_particle
+        if self.history is not None or order is None:
+            return cache_rows(self, h)
+        cur = self.state.cur
+        points = np.empty((order.shape[0], 3), np.float32)
+        if h is None:
+            gather_xyz(cur, order, points)
+            return points, None
+        velocities = np.empty_like(points)
+        vertex_rows(cur, self.state.prev, order, cur.dtype.type(h), points, velocities)
+        return points, velocities
 
     def world_velocities(self, h: float) -> np.ndarray:
         """f32 (n,3) velocities over the last iteration, world space, scene units per second."""

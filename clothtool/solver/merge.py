@@ -45,6 +45,7 @@ class MergedFabric:
     xpbd compliance). Everything else a fabric holds stays with each cloth's own model."""
 
     particle_area: np.ndarray
+    vertex_particle: None = None  # a merged cloth writes no cache rows (its members do, in their own order)
 
 
 def merge_key(solver) -> tuple | None:
@@ -269,6 +270,9 @@ class GroupMember:
 
     def world_velocities(self, h: float) -> np.ndarray:
         return self.solver.world_velocities(h)
+
+    def cache_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+        return self.solver.cache_rows(h)
 
 
 def merge_solvers(solvers: list) -> list:

@@ -20,3 +20,9 @@ def xyz_velocity(cur, prev, h, out):
 def gather_xyz(rows, order, out):
     """Returns rows[order, :3] in out's dtype."""
     return np.asarray(rows)[np.asarray(order), :3].astype(np.asarray(out).dtype)
+
+
+def vertex_rows(cur, prev, order, h, points, velocities):
+    """Returns (gather_xyz of cur, gather_xyz of xyz_velocity) in points' and velocities' dtypes."""
+    moved = xyz_velocity(cur, prev, h, np.zeros(0, np.float64))
+    return gather_xyz(cur, order, points), gather_xyz(moved, order, velocities)

@@ -34,6 +34,7 @@ from clothtool.integrators.explicit.kernels.explicit_wind import wind_forces
 from clothtool.integrators.explicit.springs import air_density, spring_damping, spring_stiffness
 from clothtool.integrators.explicit.stability import stability_report
 from clothtool.solver.air import corner_shares
+from clothtool.solver.cache_rows import cache_rows
 from clothtool.solver.cloth import ClothState
 from clothtool.solver.collide import CollideStage
 from clothtool.solver.iteration import FramePlan, Iteration
@@ -253,6 +254,10 @@ class ExplicitClothSolver:
     def world_points(self) -> np.ndarray:
         """(n,3) current positions in world space (scene units), in the state's precision."""
         return np.ascontiguousarray(self.state.cur[:, :3])
+
+    def cache_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """See Integrator.cache_rows."""
+        return cache_rows(self, h)
 
     def world_velocities(self, h: float) -> np.ndarray:
         """f32 (n,3) world velocities in scene units per second: the integrator's own velocity

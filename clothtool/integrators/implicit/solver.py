@@ -71,6 +71,7 @@ from clothtool.integrators.implicit.rest import build_rest_shape, triangle_corne
 from clothtool.profile import StageProfiler
 from clothtool.settings import SolverConfig
 from clothtool.solver.air import corner_shares
+from clothtool.solver.cache_rows import cache_rows
 from clothtool.solver.collide import CollideStage
 from clothtool.solver.environment import Environment
 from clothtool.solver.iteration import FramePlan, Iteration
@@ -467,6 +468,10 @@ class ImplicitClothSolver:
     def world_points(self) -> np.ndarray:
         """(n,3) current positions, world space, in the state's precision."""
         return np.ascontiguousarray(self.state.cur[:, :3])
+
+    def cache_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """See Integrator.cache_rows."""
+        return cache_rows(self, h)
 
     def world_velocities(self, h: float) -> np.ndarray:
         """f32 (n,3) velocities at the end of the last step (world space, scene units/s)."""

@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._simd import load4, store4, vsub
 
 _VELOCITY_BLOCK = 64  # rows divided as one run by xyz_velocity
 
@@ -58,3 +59,34 @@ def gather_xyz(rows, order, out):
         out[v, 0] = rows[i, 0]
         out[v, 1] = rows[i, 1]
         out[v, 2] = rows[i, 2]
+
+
+@kernel
+def vertex_rows(cur, prev, order, h, points, velocities):
+    """A cache frame's rows from the state in one pass: points[v] = cur[order[v], :3] and
+    velocities[v] = (cur - prev)[order[v], :3] / h (in h's precision), each converted to its
+    array's dtype: the bits of gather_xyz over copy_xyz's and xyz_velocity's rows, without
+    their two (n, 3) arrays in particle order. Each block of rows is gathered (a row a load)
+    into a contiguous scratch and divided whole there (vectorised, as in xyz_velocity)."""
+    flat_cur = cur.reshape(-1)
+    flat_prev = prev.reshape(-1)
+    block_cur = np.empty(4 * _VELOCITY_BLOCK, cur.dtype)
+    block_delta = np.empty(4 * _VELOCITY_BLOCK, cur.dtype)
+    quotients = np.empty(4 * _VELOCITY_BLOCK, np.float64)  # holds any quotient exactly
+    n = order.shape[0]
+    for start in range(0, n, _VELOCITY_BLOCK):
+        rows = min(_VELOCITY_BLOCK, n - start)
+        for r in range(rows):
+            i = 4 * order[start + r]
+            row = load4(flat_cur, i)
+            store4(block_cur, 4 * r, row)
+            store4(block_delta, 4 * r, vsub(row, load4(flat_prev, i)))
+        for j in range(4 * rows):
+            quotients[j] = block_delta[j] / h
+        for r in range(rows):
+            points[start + r, 0] = block_cur[4 * r]
+            points[start + r, 1] = block_cur[4 * r + 1]
+            points[start + r, 2] = block_cur[4 * r + 2]
+            velocities[start + r, 0] = quotients[4 * r]
+            velocities[start + r, 1] = quotients[4 * r + 1]
+            velocities[start + r, 2] = quotients[4 * r + 2]
