@@ -92,7 +92,16 @@ class Collider:
     def shape_matrix(self) -> np.ndarray:
         """4x4 from the cache's canonical shape frame to the collider's local frame: spheres
         at the origin, capsules along +X centred on the origin, planes with normal +Y through
-        the origin; convexes and meshes keep their own coordinates."""
+        the origin; convexes and meshes keep their own coordinates. Made once (a capsule's
+        took ~33 us, and a bake writing colliders asks every frame); read-only."""
+        made = self.__dict__.get("_shape_matrix")
+        if made is None:
+            made = self._make_shape_matrix()
+            made.flags.writeable = False
+            self.__dict__["_shape_matrix"] = made  # a frozen dataclass: its own cache slot, as Track's samples
+        return made
+
+    def _make_shape_matrix(self) -> np.ndarray:
         m = np.eye(4)
         if self.kind == "sphere":
             m[:3, 3] = self.centers[0]
@@ -158,8 +167,15 @@ class SceneColliders:
         return tuple(c.info() for c in self.colliders)
 
     def xforms(self, time: float) -> tuple[np.ndarray, ...]:
-        """Per collider, the 4x4 world matrix in the row-vector convention caches use."""
-        return tuple((c.matrix(time) @ c.shape_matrix()).T.copy() for c in self.colliders)
+        """Per collider, the 4x4 world matrix in the row-vector convention caches use. At a
+        prefetched time the track's matrix is the prefetch's (the bits of ``matrix(time)``,
+        which made one for a single time anew: ~35 us a collider a frame)."""
+        samples = self._prefetched
+        row = None if samples is None else samples.rows.get(time)
+        if row is None:
+            return tuple((c.matrix(time) @ c.shape_matrix()).T.copy() for c in self.colliders)
+        matrices = samples.track_matrices
+        return tuple((matrices[id(c.track)][row] @ c.shape_matrix()).T.copy() for c in self.colliders)
 
     def deformed_points(self, time: float) -> tuple[np.ndarray | None, ...]:
         return tuple(
@@ -246,6 +262,7 @@ class _ColliderSamples:
         self.rows = {float(t): row for row, t in enumerate(times)}
         count = times.shape[0]
         tracks = _track_matrices(colliders, times, prefetch_tracks)  # colliders sharing a track share its matrices
+        self.track_matrices = tracks  # for SceneColliders.xforms
         centers, radii, s_margin, s_friction, s_collider = [], [], [], [], []
         capsules, c_margin, c_friction = [], [], []
         planes, offsets, v_margin, v_friction = [], [0], [], []

@@ -87,6 +87,23 @@ def test_prefetched_colliders_are_the_bits_of_one_time_alone(scene):
     np.testing.assert_allclose(scene.colliders.at(0.55).sphere_center[0], [1.55, 1.1, 0.0], rtol=1e-6)
 
 
+def test_prefetched_collider_transforms_are_the_bits_of_one_time_alone(scene):
+    """The cache's collider transforms at a prefetched time come from the prefetch's track
+    matrices: the same bits as a time evaluated alone, for every kind on a scaled, turning
+    cubic track and a scaled slide; the shape matrices are made once and read-only."""
+    times = [scene.frame_time(frame) for frame in range(scene.start_frame, scene.end_frame + 1)]
+    alone = [scene.colliders.xforms(t) for t in times]  # nothing prefetched
+    scene.colliders.prefetch(times)
+    for t, expected in zip(times, alone):
+        for got, want in zip(scene.colliders.xforms(t), expected, strict=True):
+            assert got.flags.c_contiguous and np.array_equal(got, want), t
+    leg = next(c for c in scene.colliders.colliders if c.kind == "capsule")
+    assert leg.shape_matrix() is leg.shape_matrix() and not leg.shape_matrix().flags.writeable
+    # the capsule's canonical +X axis maps onto its start-to-end direction, centred
+    np.testing.assert_allclose(leg.shape_matrix()[:3, :3] @ [1.0, 0.0, 0.0], [0.0, -1.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(leg.shape_matrix()[:3, 3], [0.0, -0.5, 0.0], atol=1e-12)
+
+
 def test_prefetched_colliders_match_closed_forms(scene):
     scene.colliders.prefetch([0.0, 0.5, 1.0])
     middle = scene.colliders.at(0.5)
