@@ -9,7 +9,7 @@ import numpy as np
 
 from clothtool.profile import JIT_STAGE, StageProfiler
 from clothtool.settings import SolverConfig
-from clothtool.solver.cache_rows import cache_rows
+from clothtool.solver.cache_rows import cache_rows, in_vertex_order
 from clothtool.solver.environment import Environment
 from clothtool.solver.frame import (
     PLANNED_CHUNK,
@@ -318,10 +318,17 @@ class ClothSolver:
     def cache_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
         """See Integrator.cache_rows. Without a moving frame, straight from the state in one
         pass (kernels.rows.vertex_rows: the same bits, no particle-order copies between)."""
-        order = self.model.fabric.vertex_particle
-        if self.history is not None or order is None:
-            return cache_rows(self, h)
         cur = self.state.cur
+        if self.history is not None:  # world_points' and world_velocities' rows, sharing the world points
+            now = self.history.now.to_world(cur[:, :3])
+            points = in_vertex_order(self.model, now)  # rounded to float32 once, as world_points' were
+            if h is None:
+                return points, None
+            before = self.history.before.to_world(self.state.prev[:, :3])
+            return points, in_vertex_order(self.model, ((now - before) / h).astype(np.float32))
+        order = self.model.fabric.vertex_particle
+        if order is None:
+            return cache_rows(self, h)
         points = np.empty((order.shape[0], 3), np.float32)
         if h is None:
             gather_xyz(cur, order, points)
