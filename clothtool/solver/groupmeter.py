@@ -5,8 +5,8 @@ member on the merged state: the members' constraint, tether and mass arrays conc
 (their indices count from each member's first particle, as when measured alone), and each
 member's meter reading its figures from views of the call's outputs (``span_max``,
 ``span_sum``, ``percentiles``), so every member's stats are the numbers its own meter gives,
-to the bit. One call instead of one per cloth: 16 cloths of 16^2 spent a sixth of their
-frame in the per-cloth calls' overhead.
+to the bit. One call instead of one per cloth (16 cloths of 16^2: 18 compiled calls a frame
+became 3), percentiles included.
 """
 
 from __future__ import annotations

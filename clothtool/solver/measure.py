@@ -58,8 +58,8 @@ class ClothMeter:
 
     def warm_up(self, percentiles: bool = True, mesh_penetration: bool = False, shape_penetration: bool = False) -> None:
         """Compile the kernels ``measure`` calls (with mesh_penetration and shape_penetration, the
-        measure of faces in mesh colliders and in spheres and capsules). One kernel measures with
-        and without percentiles: ``percentiles`` is accepted for the callers' symmetry."""
+        measure of faces in mesh colliders and in spheres and capsules): one kernel (the same
+        compilation with and without percentiles) measures, here once on the current state."""
         if mesh_penetration:
             warm_up_mesh_depths()
         if shape_penetration:
