@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest
 from clothtool.solver.kernels.collide_faces import _capsule_terms, capsule_deepest
 from clothtool.solver.kernels.collide_shapes import capsule_axis, round_cone_distance
 
@@ -35,7 +36,7 @@ def round_cone_depths(points, triangles, cones, depth):
         p1x, p1y, p1z = points[b, 0], points[b, 1], points[b, 2]
         p2x, p2y, p2z = points[c, 0], points[c, 1], points[c, 2]
         cx, cy, cz = (p0x + p1x + p2x) / 3.0, (p0y + p1y + p2y) / 3.0, (p0z + p1z + p2z) / 3.0
-        reach = np.sqrt(max((p0x - cx) ** 2 + (p0y - cy) ** 2 + (p0z - cz) ** 2,
+        reach = np.sqrt(largest((p0x - cx) ** 2 + (p0y - cy) ** 2 + (p0z - cz) ** 2,
                             (p1x - cx) ** 2 + (p1y - cy) ** 2 + (p1z - cz) ** 2,
                             (p2x - cx) ** 2 + (p2y - cy) ** 2 + (p2z - cz) ** 2))
         for q in range(cones.shape[0]):
@@ -44,4 +45,4 @@ def round_cone_depths(points, triangles, cones, depth):
             if near > reach:
                 continue
             g = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, _capsule_terms(cones, q), True)[0]
-            depth[t] = max(depth[t], -g)
+            depth[t] = largest(depth[t], -g)
