@@ -42,7 +42,7 @@ BARYCENTRIC_SLACK = np.float32(1e-5)
 SIDE_SLACK = np.float32(1e-3)  # of the margin: how far behind the plane still counts as its front
 
 
-@kernel
+@kernel(device=True)  # only kernels call it: their twin, without a CPython wrapper to compile
 def closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """(u, v): barycentric weights of b and c of the point of triangle abc closest to p
     (the point is a + u (b - a) + v (c - a)); Voronoi regions of the corners, edges, face."""
