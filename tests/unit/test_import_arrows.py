@@ -17,7 +17,7 @@ PACKAGE = Path(__file__).resolve().parents[2] / "clothtool"
 
 # Neutral modules: anything may import them; they import only each other. ``collision`` holds
 # the collider values (DESIGN.md's neutral collision layer), ``usd_env`` how pxr is run.
-NEUTRAL = {"errors", "inputs", "resources", "presets", "settings", "_jit", "_kernel_cache", "_simd", "_simd_python", "fabric",
+NEUTRAL = {"errors", "inputs", "resources", "presets", "settings", "_jit", "_kernel_cache", "_simd", "_simd_python", "_minmax", "fabric",
            "mesh", "collision", "usd_env", "__init__"}
 # What each layer may import besides the neutral modules.
 ALLOWED = {

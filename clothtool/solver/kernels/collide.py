@@ -38,6 +38,7 @@ import numba
 import numpy as np
 
 from clothtool._jit import kernel, serial_and_parallel
+from clothtool._minmax import smallest
 from clothtool.solver.kernels.collide_mesh import mesh_contact
 from clothtool.solver.kernels.collide_shapes import (
     REACH,
@@ -224,7 +225,7 @@ def friction_correction(px, py, pz, qx, qy, qz, dx, dy, dz, sx, sy, sz, budget):
     tangential = np.sqrt(rx * rx + ry * ry + rz * rz)
     if tangential <= TINY or budget <= zero:
         return zero, zero, zero
-    fraction = min(np.float32(1.0), budget / tangential)
+    fraction = smallest(np.float32(1.0), budget / tangential)
     return -fraction * rx, -fraction * ry, -fraction * rz
 
 
@@ -427,7 +428,7 @@ def share_out(cur, a, b, c, ma, mb, mc, norm, cx, cy, cz, scale, cap):
     for particle, m in ((a, ma), (b, mb), (c, mc)):
         if m == np.float32(0.0):
             continue
-        share = min(m / norm, cap)
+        share = smallest(m / norm, cap)
         cur[particle, 0] += cx * share
         cur[particle, 1] += cy * share
         cur[particle, 2] += cz * share

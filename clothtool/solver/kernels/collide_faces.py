@@ -45,6 +45,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 from clothtool.solver.kernels.collide import friction_correction, movable_weights, share_out, weighted_point
 from clothtool.solver.kernels.collide_mesh import closest_on_triangle
 from clothtool.solver.kernels.collide_shapes import capsule_distance, sphere_distance
@@ -105,8 +106,8 @@ def _edge_minimum(px, py, pz, qx, qy, qz, T):
         lambda0 = -(w0x * wex + w0y * wey + w0z * wez) / big_a
         slope = big_a * cos_a * cos_a - k * k
         if slope > zero:
-            m2 = max(w0x * w0x + w0y * w0y + w0z * w0z - big_a * lambda0 * lambda0, zero)
-            lam = min(max(lambda0 - k * np.sqrt(m2 / (big_a * slope)), zero), one)
+            m2 = largest(w0x * w0x + w0y * w0y + w0z * w0z - big_a * lambda0 * lambda0, zero)
+            lam = smallest(largest(lambda0 - k * np.sqrt(m2 / (big_a * slope)), zero), one)
     wx, wy, wz = w0x + lam * wex, w0y + lam * wey, w0z + lam * wez
     return _side(t0 + lam * te, wx * wx + wy * wy + wz * wz, T), lam
 
@@ -163,8 +164,8 @@ def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T, exact):
         e01 = (d1x - d0x) ** 2 + (d1y - d0y) ** 2 + (d1z - d0z) ** 2 - (t1 - t0) ** 2
         e12 = (d2x - d1x) ** 2 + (d2y - d1y) ** 2 + (d2z - d1z) ** 2 - (t2 - t1) ** 2
         e20 = (d0x - d2x) ** 2 + (d0y - d2y) ** 2 + (d0z - d2z) ** 2 - (t0 - t2) ** 2
-        r = max(ra, rb)
-        if not exact and min(q0, q1, q2) - max(e01, e12, e20) * np.float32(1.0 / 3.0) > r * r:
+        r = largest(ra, rb)
+        if not exact and smallest(q0, q1, q2) - largest(e01, e12, e20) * np.float32(1.0 / 3.0) > r * r:
             return np.float32(np.inf), one, zero, zero
         # the edges
         best, s = _edge_minimum(p0x, p0y, p0z, p1x, p1y, p1z, T)
@@ -192,11 +193,11 @@ def capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, T, exact):
         # the end spheres, when the triangle reaches their side of the cone: s = t - rho tan(alpha)
         # is at least min t - reach |tan(alpha)| over the points within reach (rho <= reach)
         slant = np.sqrt(reach2) * abs(sin_a)  # reach |tan(alpha)|, times cos(alpha)
-        if exact or min(t0, t1, t2) * cos_a <= slant:
+        if exact or smallest(t0, t1, t2) * cos_a <= slant:
             g, ea, eb, ec = _end_sphere(ax, ay, az, ra, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
             if g < best:
                 best, wa, wb, wc = g, ea, eb, ec
-        if exact or (max(t0, t1, t2) - length) * cos_a >= -slant:
+        if exact or (largest(t0, t1, t2) - length) * cos_a >= -slant:
             g, ea, eb, ec = _end_sphere(bx, by, bz, rb, p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z)
             if g < best:
                 best, wa, wb, wc = g, ea, eb, ec
@@ -234,11 +235,11 @@ def _collider_boxes(sphere_data, capsule_data, out):
             out[s, d] = S[s, 4 + d] - S[s, 7]
             out[s, 3 + d] = S[s, 4 + d] + S[s, 7]
     for c in range(C.shape[0]):
-        r = max(C[c, 11], C[c, 15])
+        r = largest(C[c, 11], C[c, 15])
         k = S.shape[0] + c
         for d in range(3):
-            out[k, d] = min(C[c, 8 + d], C[c, 12 + d]) - r
-            out[k, 3 + d] = max(C[c, 8 + d], C[c, 12 + d]) + r
+            out[k, d] = smallest(C[c, 8 + d], C[c, 12 + d]) - r
+            out[k, 3 + d] = largest(C[c, 8 + d], C[c, 12 + d]) + r
 
 
 @kernel
@@ -260,8 +261,8 @@ def collide_faces(faces, sphere_data, capsule_data, prev, mass_scale, meters_per
                 p0x, p0y, p0z = cur[a, 0], cur[a, 1], cur[a, 2]
                 p1x, p1y, p1z = cur[b, 0], cur[b, 1], cur[b, 2]
                 p2x, p2y, p2z = cur[c, 0], cur[c, 1], cur[c, 2]
-                lx, ly, lz = min(p0x, p1x, p2x), min(p0y, p1y, p2y), min(p0z, p1z, p2z)
-                hx, hy, hz = max(p0x, p1x, p2x), max(p0y, p1y, p2y), max(p0z, p1z, p2z)
+                lx, ly, lz = smallest(p0x, p1x, p2x), smallest(p0y, p1y, p2y), smallest(p0z, p1z, p2z)
+                hx, hy, hz = largest(p0x, p1x, p2x), largest(p0y, p1y, p2y), largest(p0z, p1z, p2z)
             if (lx > boxes[k, 3] or hx < boxes[k, 0] or ly > boxes[k, 4] or hy < boxes[k, 1] or lz > boxes[k, 5]
                     or hz < boxes[k, 2]):
                 continue

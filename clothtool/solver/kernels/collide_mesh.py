@@ -36,12 +36,13 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 
 BARYCENTRIC_SLACK = np.float32(1e-5)
 SIDE_SLACK = np.float32(1e-3)  # of the margin: how far behind the plane still counts as its front
 
 
-@kernel
+@kernel(device=True)  # only kernels call it: their twin, without a CPython wrapper to compile
 def closest_on_triangle(px, py, pz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """(u, v): barycentric weights of b and c of the point of triangle abc closest to p
     (the point is a + u (b - a) + v (c - a)); Voronoi regions of the corners, edges, face."""
@@ -179,8 +180,8 @@ def triangle_bounds(points0, points1, triangles, margins, pad, bounds):
             hi = -np.inf
             for c in range(3):
                 p = triangles[t, c]
-                lo = min(lo, points0[p, d], points1[p, d])
-                hi = max(hi, points0[p, d], points1[p, d])
+                lo = smallest(lo, points0[p, d], points1[p, d])
+                hi = largest(hi, points0[p, d], points1[p, d])
             bounds[t, d] = lo - grow
             bounds[t, 3 + d] = hi + grow
 
@@ -200,22 +201,22 @@ def grid_layout(bounds, max_cells, grid):
     hi0 = hi1 = hi2 = -np.inf
     mean = 0.0
     for i in range(t):
-        lo0 = min(lo0, bounds[i, 0])
-        lo1 = min(lo1, bounds[i, 1])
-        lo2 = min(lo2, bounds[i, 2])
-        hi0 = max(hi0, bounds[i, 3])
-        hi1 = max(hi1, bounds[i, 4])
-        hi2 = max(hi2, bounds[i, 5])
-        mean += max(bounds[i, 3] - bounds[i, 0], bounds[i, 4] - bounds[i, 1], bounds[i, 5] - bounds[i, 2])
-    size = max(0.5 * mean / t, 1e-12)
-    e0 = max(hi0 - lo0, 1e-12)
-    e1 = max(hi1 - lo1, 1e-12)
-    e2 = max(hi2 - lo2, 1e-12)
+        lo0 = smallest(lo0, bounds[i, 0])
+        lo1 = smallest(lo1, bounds[i, 1])
+        lo2 = smallest(lo2, bounds[i, 2])
+        hi0 = largest(hi0, bounds[i, 3])
+        hi1 = largest(hi1, bounds[i, 4])
+        hi2 = largest(hi2, bounds[i, 5])
+        mean += largest(bounds[i, 3] - bounds[i, 0], bounds[i, 4] - bounds[i, 1], bounds[i, 5] - bounds[i, 2])
+    size = largest(0.5 * mean / t, 1e-12)
+    e0 = largest(hi0 - lo0, 1e-12)
+    e1 = largest(hi1 - lo1, 1e-12)
+    e2 = largest(hi2 - lo2, 1e-12)
     while np.ceil(e0 / size) * np.ceil(e1 / size) * np.ceil(e2 / size) > max_cells:
         size *= 1.25
-    n0 = max(int(np.ceil(e0 / size)), 1)
-    n1 = max(int(np.ceil(e1 / size)), 1)
-    n2 = max(int(np.ceil(e2 / size)), 1)
+    n0 = largest(int(np.ceil(e0 / size)), 1)
+    n1 = largest(int(np.ceil(e1 / size)), 1)
+    n2 = largest(int(np.ceil(e2 / size)), 1)
     grid[0] = lo0
     grid[1] = lo1
     grid[2] = lo2
@@ -230,7 +231,7 @@ def grid_layout(bounds, max_cells, grid):
 def grid_cell(x, grid, d):
     """Index of the cell holding coordinate x along axis d, clamped to the grid."""
     c = int(np.floor((x - grid[d]) * grid[3]))
-    return min(max(c, 0), int(grid[4 + d]) - 1)
+    return smallest(largest(c, 0), int(grid[4 + d]) - 1)
 
 
 @kernel
@@ -248,7 +249,7 @@ def box_cells(lox, loy, loz, hix, hiy, hiz, grid):
     ny = int(grid[5])
     nz = int(grid[6])
     outside = x1 < 0 or y1 < 0 or z1 < 0 or x0 >= nx or y0 >= ny or z0 >= nz
-    return outside, max(x0, 0), max(y0, 0), max(z0, 0), min(x1, nx - 1), min(y1, ny - 1), min(z1, nz - 1)
+    return outside, largest(x0, 0), largest(y0, 0), largest(z0, 0), smallest(x1, nx - 1), smallest(y1, ny - 1), smallest(z1, nz - 1)
 
 
 # A box query (the kernels that look up triangles near a point's move or a cloth triangle) walks
@@ -277,7 +278,7 @@ def first_shared_cell(t, x, y, z, x0, y0, z0, cell_ranges):
     """Whether cell (x, y, z) of a box whose first cell is (x0, y0, z0) is the first cell (the
     lowest on each axis) that the box shares with triangle t's cells: a query that tests t
     there only tests each triangle once, however many of the box's cells hold it."""
-    return x == max(x0, cell_ranges[t, 0]) and y == max(y0, cell_ranges[t, 1]) and z == max(z0, cell_ranges[t, 2])
+    return x == largest(x0, cell_ranges[t, 0]) and y == largest(y0, cell_ranges[t, 1]) and z == largest(z0, cell_ranges[t, 2])
 
 
 @kernel
@@ -352,7 +353,7 @@ def mesh_contact(px, py, pz, qx, qy, qz, triangle_data, cell_start, cell_items, 
     wpx, wpy, wpz = to_world(frame, 1, px, py, pz)
     wqx, wqy, wqz = to_world(frame, 0, qx, qy, qz)
     outside, x0, y0, z0, x1, y1, z1 = box_cells(
-        min(wpx, wqx), min(wpy, wqy), min(wpz, wqz), max(wpx, wqx), max(wpy, wqy), max(wpz, wqz), grid
+        smallest(wpx, wqx), smallest(wpy, wqy), smallest(wpz, wqz), largest(wpx, wqx), largest(wpy, wqy), largest(wpz, wqz), grid
     )
     if outside:
         return hit, rx, ry, rz, sx, sy, sz, mu

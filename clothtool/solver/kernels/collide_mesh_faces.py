@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 from clothtool.solver.kernels.collide import friction_correction
 from clothtool.solver.kernels.collide_mesh import (
     box_cell,
@@ -91,10 +92,10 @@ def _misses(R, T, t):
         o = 3 * k
         h0 = R[0, 18] * (T[t, o] - R[0, 0]) + R[0, 19] * (T[t, o + 1] - R[0, 1]) + R[0, 20] * (T[t, o + 2] - R[0, 2])
         h1 = R[0, 21] * (T[t, 9 + o] - R[0, 9]) + R[0, 22] * (T[t, 10 + o] - R[0, 10]) + R[0, 23] * (T[t, 11 + o] - R[0, 11])
-        low0 = min(low0, h0)
-        high0 = max(high0, h0)
-        low1 = min(low1, h1)
-        high1 = max(high1, h1)
+        low0 = smallest(low0, h0)
+        high0 = largest(high0, h0)
+        low1 = smallest(low1, h1)
+        high1 = largest(high1, h1)
     margin = T[t, 24]
     if low0 >= zero:
         if low1 >= margin:
@@ -146,12 +147,12 @@ def collide_mesh_faces(
                     x, y, z = to_world(frame, 0, prev[p, 0], prev[p, 1], prev[p, 2])
                 else:
                     x, y, z = to_world(frame, 1, cur[p, 0], cur[p, 1], cur[p, 2])
-                lo0 = min(lo0, x)
-                lo1 = min(lo1, y)
-                lo2 = min(lo2, z)
-                hi0 = max(hi0, x)
-                hi1 = max(hi1, y)
-                hi2 = max(hi2, z)
+                lo0 = smallest(lo0, x)
+                lo1 = smallest(lo1, y)
+                lo2 = smallest(lo2, z)
+                hi0 = largest(hi0, x)
+                hi1 = largest(hi1, y)
+                hi2 = largest(hi2, z)
         outside, x0, y0, z0, x1, y1, z1 = box_cells(lo0, lo1, lo2, hi0, hi1, hi2, grid)
         if outside:
             continue

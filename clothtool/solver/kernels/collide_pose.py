@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 from clothtool.solver.kernels.collide_shapes import capsule_axis
 
 
@@ -34,7 +35,7 @@ def pose_spheres(world0, world1, frame, alpha, end, out):
     interpolated (at least 0)."""
     pose_points(world0, world1, frame, alpha, end, out)
     for i in range(out.shape[0]):
-        out[i, 3] = max(world0[i, 3] + alpha * (world1[i, 3] - world0[i, 3]), 0.0)
+        out[i, 3] = largest(world0[i, 3] + alpha * (world1[i, 3] - world0[i, 3]), 0.0)
 
 
 @kernel
@@ -130,8 +131,8 @@ def pack_triangle(points0, points1, a, b, c, margin, friction, out, row):
         x = out[row, 9 + d]
         y = out[row, 12 + d]
         z = out[row, 15 + d]
-        out[row, 26 + d] = min(x, y, z) - margin
-        out[row, 29 + d] = max(x, y, z) + margin
+        out[row, 26 + d] = smallest(x, y, z) - margin
+        out[row, 29 + d] = largest(x, y, z) + margin
 
 
 @kernel

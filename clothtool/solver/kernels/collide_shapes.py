@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 
 TINY = np.float32(1e-12)
 
@@ -85,7 +86,7 @@ def round_cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb):
     uy = aby * inv_length
     uz = abz * inv_length
     sin_a = (ra - rb) * inv_length
-    cos_a = np.sqrt(max(one - sin_a * sin_a, zero))
+    cos_a = np.sqrt(largest(one - sin_a * sin_a, zero))
     axial, ex, ey, ez, radial2 = _axial_and_radial(px, py, pz, ax, ay, az, ux, uy, uz)
     return _cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, length, sin_a, cos_a, axial, ex, ey, ez,
                           radial2)
@@ -132,7 +133,7 @@ def _cone_distance(px, py, pz, ax, ay, az, ra, bx, by, bz, rb, ux, uy, uz, lengt
     nz = sin_a * uz + cos_a * ez
     # the interpolated sphere through the closest point: its centre lies along -n from it
     sigma = (axial - d * sin_a - ra * sin_a) / (length * cos_a * cos_a)
-    return d, nx, ny, nz, min(max(sigma, zero), one)
+    return d, nx, ny, nz, smallest(largest(sigma, zero), one)
 
 
 # Columns of a capsule record: the poses and friction, then the end pose's axis terms.
@@ -158,7 +159,7 @@ def capsule_axis(C, c):
     aby = by - ay
     abz = bz - az
     length = np.sqrt(abx * abx + aby * aby + abz * abz)
-    reach = REACH * max(ra, rb)
+    reach = REACH * largest(ra, rb)
     C[c, 23] = reach * reach
     if length <= abs(ra - rb) or length <= TINY:
         C[c, 17] = C[c, 18] = C[c, 19] = C[c, 21] = C[c, 22] = zero
@@ -171,7 +172,7 @@ def capsule_axis(C, c):
     C[c, 20] = length
     sin_a = (ra - rb) * inv_length
     C[c, 21] = sin_a
-    C[c, 22] = np.sqrt(max(one - sin_a * sin_a, zero))
+    C[c, 22] = np.sqrt(largest(one - sin_a * sin_a, zero))
 
 
 @kernel(device=True)
@@ -283,15 +284,15 @@ def capsule_time_of_impact(qx, qy, qz, px, py, pz, capsule_data, c):
     wbx = vx - (capsule_data[c, 12] - capsule_data[c, 4])
     wby = vy - (capsule_data[c, 13] - capsule_data[c, 5])
     wbz = vz - (capsule_data[c, 14] - capsule_data[c, 6])
-    rate = max(np.sqrt(wax * wax + way * way + waz * waz), np.sqrt(wbx * wbx + wby * wby + wbz * wbz))
-    rate += max(abs(capsule_data[c, 11] - capsule_data[c, 3]), abs(capsule_data[c, 15] - capsule_data[c, 7]))
+    rate = largest(np.sqrt(wax * wax + way * way + waz * waz), np.sqrt(wbx * wbx + wby * wby + wbz * wbz))
+    rate += largest(abs(capsule_data[c, 11] - capsule_data[c, 3]), abs(capsule_data[c, 15] - capsule_data[c, 7]))
     ax, ay, az, ra, bx, by, bz, rb = capsule_at(capsule_data, c, zero)
     d, nx, ny, nz, sigma = round_cone_distance(qx, qy, qz, ax, ay, az, ra, bx, by, bz, rb)
     if d <= zero:
         return zero, nx, ny, nz, sigma
     if d >= rate:
         return np.float32(-1.0), nx, ny, nz, sigma
-    tolerance = np.float32(1e-4) * min(ra, rb) + np.float32(1e-9)
+    tolerance = np.float32(1e-4) * smallest(ra, rb) + np.float32(1e-9)
     t = zero
     for _ in range(64):
         t = t + d / rate

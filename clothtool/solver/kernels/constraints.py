@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 from clothtool._simd import fill, keep_w, lane, load4, store4, vadd, vmul, vsub
 
 # Guards sqrt and division when two particles coincide. NvCloth adds FLT_EPSILON here, which
@@ -29,7 +30,7 @@ def constrain_motion(centers, radii, scale, bias, stiffness, cur):
         dy = centers[i, 1] - cur[i, 1]
         dz = centers[i, 2] - cur[i, 2]
         sqr_length = DISTANCE_EPSILON + dx * dx + dy * dy + dz * dz
-        radius = max(zero, radii[i] * scale + bias)
+        radius = largest(zero, radii[i] * scale + bias)
         slack = one - radius / np.sqrt(sqr_length)
         if slack > zero:
             if radius <= zero:
@@ -88,7 +89,7 @@ def constrain_tethers(anchors, lengths, scale, stiffness, cur):
     for block in range((n + TETHER_BLOCK - 1) // TETHER_BLOCK):
         # unsigned indices: no negative-index wraparound code, which blocks vectorisation
         lo = np.uintp(block * TETHER_BLOCK)
-        hi = np.uintp(min(block * TETHER_BLOCK + TETHER_BLOCK, n))
+        hi = np.uintp(smallest(block * TETHER_BLOCK + TETHER_BLOCK, n))
         pull[:] = 0.0
         for s in range(k):
             slot = np.uintp(s * n)
@@ -97,7 +98,7 @@ def constrain_tethers(anchors, lengths, scale, stiffness, cur):
                 delta2 = vmul(delta, delta)
                 slack[i - lo] = DISTANCE_EPSILON + lane(delta2, 0) + lane(delta2, 1) + lane(delta2, 2)
             for i in range(lo, hi):
-                slack[i - lo] = max(one - lengths[slot + i] * scale / np.sqrt(slack[i - lo]), zero)
+                slack[i - lo] = largest(one - lengths[slot + i] * scale / np.sqrt(slack[i - lo]), zero)
             for i in range(lo, hi):
                 delta = vsub(load4(flat, 4 * anchors[slot + i]), load4(flat, 4 * i))
                 row = 4 * (i - lo)

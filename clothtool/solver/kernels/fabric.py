@@ -20,6 +20,7 @@ import numba
 import numpy as np
 
 from clothtool._jit import kernel, serial_and_parallel
+from clothtool._minmax import largest, smallest
 from clothtool._simd import fill, is_double, keep_w, lane, load4, store4, transpose4, vadd, vmul, vsub, w_lanes
 
 FLT_EPSILON = np.float32(1.1920929e-07)
@@ -63,12 +64,12 @@ BLOCK = 256
 @kernel(inline="always")
 def _scratch_size(set_offsets, layer_group_offsets):
     """Scratch rows: the largest set (one layer of one group) or a BLOCK per group."""
-    largest = 0
+    rows = 0
     for s in range(set_offsets.shape[0] - 1):
-        largest = max(largest, set_offsets[s + 1] - set_offsets[s])
+        rows = largest(rows, set_offsets[s + 1] - set_offsets[s])
     for layer in range(layer_group_offsets.shape[0] - 1):
-        largest = max(largest, (layer_group_offsets[layer + 1] - layer_group_offsets[layer]) * BLOCK)
-    return largest
+        rows = largest(rows, (layer_group_offsets[layer + 1] - layer_group_offsets[layer]) * BLOCK)
+    return rows
 
 
 @kernel(inline="always")
@@ -160,7 +161,7 @@ def _edge_block(flat, indices, rest, constraint_stiffness, params, p, first, cou
             j = at + i
             er, inverse = _slack_over(rest[c], length2[j], FLT_EPSILON + wa[j] + wb[j])
             if m != np.float32(0.0):
-                er -= m * max(lo_limit, min(er, hi_limit))
+                er -= m * largest(lo_limit, smallest(er, hi_limit))
             ex = er * k * constraint_stiffness[c] * inverse
             wa[j] *= ex
             wb[j] *= ex
@@ -170,7 +171,7 @@ def _edge_block(flat, indices, rest, constraint_stiffness, params, p, first, cou
             j = at + i
             er = _edge_slack(rest[c], length2[j])
             if m != np.float32(0.0):
-                er -= m * max(lo_limit, min(er, hi_limit))
+                er -= m * largest(lo_limit, smallest(er, hi_limit))
             ex = er * k * constraint_stiffness[c] / (FLT_EPSILON + wa[j] + wb[j])
             wa[j] *= ex
             wb[j] *= ex
@@ -221,7 +222,7 @@ def _make_solver(xpbd: bool):
                         size = set_offsets[s + 1] - set_offsets[s]
                         for block in numba.prange((size + BLOCK - 1) // BLOCK):
                             lo = np.uintp(block * BLOCK)
-                            count = np.uintp(min(BLOCK, size - block * BLOCK))
+                            count = np.uintp(smallest(BLOCK, size - block * BLOCK))
                             if xpbd:
                                 _xpbd_block(flat, indices, rest, per_constraint, params, p, first + lo, count, lo, length2, wa, wb)
                             else:
@@ -236,7 +237,7 @@ def _make_solver(xpbd: bool):
                             size = set_offsets[s + 1] - set_offsets[s]
                             for block in range((size + BLOCK - 1) // BLOCK):
                                 lo = np.uintp(block * BLOCK)
-                                count = np.uintp(min(BLOCK, size - block * BLOCK))
+                                count = np.uintp(smallest(BLOCK, size - block * BLOCK))
                                 if xpbd:
                                     _xpbd_block(flat, indices, rest, per_constraint, params, p, first + lo, count, at, length2, wa, wb)
                                 else:

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 from clothtool.solver.kernels.collide_mesh import (
     box_cell,
     box_cell_count,
@@ -51,23 +52,23 @@ def segment_distance(p0, p1, q0, q1):
         return np.sqrt(np.sum(r * r))
     if a <= tiny:
         s = 0.0
-        t = min(max(f / e, 0.0), 1.0)
+        t = smallest(largest(f / e, 0.0), 1.0)
     else:
         c = np.sum(d1 * r)
         if e <= tiny:
             t = 0.0
-            s = min(max(-c / a, 0.0), 1.0)
+            s = smallest(largest(-c / a, 0.0), 1.0)
         else:
             b = np.sum(d1 * d2)
             denominator = a * e - b * b
-            s = min(max((b * f - c * e) / denominator, 0.0), 1.0) if denominator > tiny * a * e else 0.0
+            s = smallest(largest((b * f - c * e) / denominator, 0.0), 1.0) if denominator > tiny * a * e else 0.0
             t = (b * s + f) / e
             if t < 0.0:
                 t = 0.0
-                s = min(max(-c / a, 0.0), 1.0)
+                s = smallest(largest(-c / a, 0.0), 1.0)
             elif t > 1.0:
                 t = 1.0
-                s = min(max((b - c) / a, 0.0), 1.0)
+                s = smallest(largest((b - c) / a, 0.0), 1.0)
     gap = p0 + s * d1 - (q0 + t * d2)
     return np.sqrt(np.sum(gap * gap))
 
@@ -94,9 +95,9 @@ def triangle_distance(A, B):
             return 0.0
     best = np.inf
     for i in range(3):
-        best = min(best, point_triangle_distance(A[i], B[0], B[1], B[2]), point_triangle_distance(B[i], A[0], A[1], A[2]))
+        best = smallest(best, point_triangle_distance(A[i], B[0], B[1], B[2]), point_triangle_distance(B[i], A[0], A[1], A[2]))
         for j in range(3):
-            best = min(best, segment_distance(A[i], A[(i + 1) % 3], B[j], B[(j + 1) % 3]))
+            best = smallest(best, segment_distance(A[i], A[(i + 1) % 3], B[j], B[(j + 1) % 3]))
     return best
 
 
@@ -148,8 +149,8 @@ def inside_depths(points, mesh_points, mesh_triangles, mesh_first, mesh_closed, 
             nearest = np.inf
             for t in range(first, last):
                 tri = mesh_triangles[t]
-                nearest = min(nearest, point_triangle_distance(p, mesh_points[tri[0]], mesh_points[tri[1]], mesh_points[tri[2]]))
-            out[i] = max(out[i], mesh_margin[k] + nearest)
+                nearest = smallest(nearest, point_triangle_distance(p, mesh_points[tri[0]], mesh_points[tri[1]], mesh_points[tri[2]]))
+            out[i] = largest(out[i], mesh_margin[k] + nearest)
 
 
 @kernel
@@ -164,7 +165,7 @@ def face_depths(points, triangles, corner_depth, mesh_points, mesh_triangles, ma
         depth = -np.inf
         for corner in range(3):
             A[corner] = points[triangles[f, corner]]
-            depth = max(depth, corner_depth[triangles[f, corner]])
+            depth = largest(depth, corner_depth[triangles[f, corner]])
         low = np.empty(3)
         high = np.empty(3)
         for d in range(3):
@@ -184,5 +185,5 @@ def face_depths(points, triangles, corner_depth, mesh_points, mesh_triangles, ma
                     apart = apart or B[:, d].min() - margins[t] > high[d] or B[:, d].max() + margins[t] < low[d]
                 if apart:
                     continue  # the boxes are apart: farther than the margin
-                depth = max(depth, margins[t] - triangle_distance(A, B))
+                depth = largest(depth, margins[t] - triangle_distance(A, B))
         out[f] = depth

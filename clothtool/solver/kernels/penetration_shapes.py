@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 from clothtool.solver.kernels.collide_faces import _capsule_terms, capsule_deepest
 from clothtool.solver.kernels.collide_shapes import capsule_axis, round_cone_distance
 
@@ -37,22 +38,22 @@ def round_cone_depths(points, triangles, cones, depth):
     for q in range(cones.shape[0]):
         capsule_axis(cones, q)
         for d in range(3):
-            boxes[q, d] = min(cones[q, 8 + d] - cones[q, 11], cones[q, 12 + d] - cones[q, 15])
-            boxes[q, 3 + d] = max(cones[q, 8 + d] + cones[q, 11], cones[q, 12 + d] + cones[q, 15])
+            boxes[q, d] = smallest(cones[q, 8 + d] - cones[q, 11], cones[q, 12 + d] - cones[q, 15])
+            boxes[q, 3 + d] = largest(cones[q, 8 + d] + cones[q, 11], cones[q, 12 + d] + cones[q, 15])
     for t in range(triangles.shape[0]):
         a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
         p0x, p0y, p0z = points[a, 0], points[a, 1], points[a, 2]
         p1x, p1y, p1z = points[b, 0], points[b, 1], points[b, 2]
         p2x, p2y, p2z = points[c, 0], points[c, 1], points[c, 2]
         cx, cy, cz = (p0x + p1x + p2x) / 3.0, (p0y + p1y + p2y) / 3.0, (p0z + p1z + p2z) / 3.0
-        reach_sqr = max((p0x - cx) ** 2 + (p0y - cy) ** 2 + (p0z - cz) ** 2,
+        reach_sqr = largest((p0x - cx) ** 2 + (p0y - cy) ** 2 + (p0z - cz) ** 2,
                         (p1x - cx) ** 2 + (p1y - cy) ** 2 + (p1z - cz) ** 2,
                         (p2x - cx) ** 2 + (p2y - cy) ** 2 + (p2z - cz) ** 2)
         reach = np.sqrt(reach_sqr)
         for q in range(cones.shape[0]):
-            ex = max(boxes[q, 0] - cx, cx - boxes[q, 3], 0.0)
-            ey = max(boxes[q, 1] - cy, cy - boxes[q, 4], 0.0)
-            ez = max(boxes[q, 2] - cz, cz - boxes[q, 5], 0.0)
+            ex = largest(boxes[q, 0] - cx, cx - boxes[q, 3], 0.0)
+            ey = largest(boxes[q, 1] - cy, cy - boxes[q, 4], 0.0)
+            ez = largest(boxes[q, 2] - cz, cz - boxes[q, 5], 0.0)
             if ex * ex + ey * ey + ez * ez > reach_sqr * (1.0 + BOX_MARGIN) ** 2:
                 continue
             near = round_cone_distance(cx, cy, cz, cones[q, 8], cones[q, 9], cones[q, 10], cones[q, 11], cones[q, 12],
@@ -60,4 +61,4 @@ def round_cone_depths(points, triangles, cones, depth):
             if near > reach:
                 continue
             g = capsule_deepest(p0x, p0y, p0z, p1x, p1y, p1z, p2x, p2y, p2z, _capsule_terms(cones, q), True)[0]
-            depth[t] = max(depth[t], -g)
+            depth[t] = largest(depth[t], -g)

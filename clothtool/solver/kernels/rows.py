@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import smallest
 from clothtool._simd import load4, store4, vsub
 
 _VELOCITY_BLOCK = 64  # rows divided as one run by xyz_velocity
@@ -40,7 +41,7 @@ def xyz_velocity(cur, prev, h, out):
     flat_prev = prev.reshape(-1)
     quotients = np.empty(4 * _VELOCITY_BLOCK, np.float64)  # one small allocation per call
     for start in range(0, n, _VELOCITY_BLOCK):
-        rows = min(_VELOCITY_BLOCK, n - start)
+        rows = smallest(_VELOCITY_BLOCK, n - start)
         c = flat_cur[4 * start : 4 * (start + rows)]
         p = flat_prev[4 * start : 4 * (start + rows)]
         for j in range(c.shape[0]):
@@ -75,7 +76,7 @@ def vertex_rows(cur, prev, order, h, points, velocities):
     quotients = np.empty(4 * _VELOCITY_BLOCK, np.float64)  # holds any quotient exactly
     n = order.shape[0]
     for start in range(0, n, _VELOCITY_BLOCK):
-        rows = min(_VELOCITY_BLOCK, n - start)
+        rows = smallest(_VELOCITY_BLOCK, n - start)
         for r in range(rows):
             i = 4 * order[start + r]
             row = load4(flat_cur, i)

@@ -68,6 +68,7 @@ import numba
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 
 CELL_LIMIT = np.float32(1.0e9)  # cell coordinates are clamped to +-this (and NaN maps to -it)
 # the list is rebuilt once a point has moved this much of the skin: a little under half, so
@@ -124,10 +125,10 @@ def build_grid(points, inv_cell, bucket_start, order, sorted_points, sorted_cell
     low_y = np.inf
     high_y = -np.inf
     for i in range(points.shape[0]):  # NaN takes no part (its cell is -CELL_LIMIT anyway)
-        low_x = min(low_x, points[i, 0])
-        high_x = max(high_x, points[i, 0])
-        low_y = min(low_y, points[i, 1])
-        high_y = max(high_y, points[i, 1])
+        low_x = smallest(low_x, points[i, 0])
+        high_x = largest(high_x, points[i, 0])
+        low_y = smallest(low_y, points[i, 1])
+        high_y = largest(high_y, points[i, 1])
     if points.shape[0] == 0 or not low_x <= high_x or not low_y <= high_y:
         strides[0] = 3
         strides[1] = 9
@@ -252,9 +253,9 @@ def _list_pairs(
     layer = strides[1]
     widest = zero
     for segment in range(segment_distance.shape[0]):
-        widest = max(widest, segment_distance[segment])
+        widest = largest(widest, segment_distance[segment])
     widest2 = (widest + skin) * (widest + skin)  # no pair's reach is larger (rounding is monotone)
-    capacity = min(pairs.shape[0], found.shape[0])
+    capacity = smallest(pairs.shape[0], found.shape[0])
     for i in range(own + 1):
         row_start[i] = 0
     entries = 0

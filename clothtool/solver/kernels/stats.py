@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import largest, smallest
 from clothtool._simd import lane, load4, vmul, vsub
 
 # Per-frame measurements run over particles and constraints STAT_BLOCK at a time: a loop
@@ -21,13 +22,13 @@ def _block_max(values, count, worst):
     w0 = w1 = w2 = w3 = worst
     whole = count - count % 4
     for i in range(0, whole, 4):
-        w0 = max(w0, values[i])
-        w1 = max(w1, values[i + 1])
-        w2 = max(w2, values[i + 2])
-        w3 = max(w3, values[i + 3])
+        w0 = largest(w0, values[i])
+        w1 = largest(w1, values[i + 1])
+        w2 = largest(w2, values[i + 2])
+        w3 = largest(w3, values[i + 3])
     for i in range(whole, count):
-        w0 = max(w0, values[i])
-    return max(max(w0, w1), max(w2, w3))
+        w0 = largest(w0, values[i])
+    return largest(largest(w0, w1), largest(w2, w3))
 
 
 @kernel(fastmath={"contract", "reassoc"})
@@ -47,7 +48,7 @@ def motion_summary(cur, prev, masses, inv_dt):
     bad = -1
     for block in range((n + STAT_BLOCK - 1) // STAT_BLOCK):
         lo = block * STAT_BLOCK
-        count = min(STAT_BLOCK, n - lo)
+        count = smallest(STAT_BLOCK, n - lo)
         for k in range(count):
             d = vsub(load4(flat, 4 * (lo + k)), load4(prev_flat, 4 * (lo + k)))  # in the state's precision
             speed_sqr[k] = (np.float64(lane(d, 0)) ** 2 + np.float64(lane(d, 1)) ** 2 + np.float64(lane(d, 2)) ** 2) * inv_dt_sqr
@@ -106,7 +107,7 @@ def tether_stretch(anchors, lengths, cur):
             dx = np.float64(lane(d, 0))
             dy = np.float64(lane(d, 1))
             dz = np.float64(lane(d, 2))
-            worst_sqr = max(worst_sqr, (dx * dx + dy * dy + dz * dz) / (length * length))
+            worst_sqr = largest(worst_sqr, (dx * dx + dy * dy + dz * dz) / (length * length))
     return np.sqrt(worst_sqr) - 1.0
 
 
@@ -135,7 +136,7 @@ def constraint_strain(indices, rest, cur, strain):
     n = indices.shape[0]
     for block in range((n + STAT_BLOCK - 1) // STAT_BLOCK):
         lo = np.uintp(block * STAT_BLOCK)
-        hi = np.uintp(min(block * STAT_BLOCK + STAT_BLOCK, n))
+        hi = np.uintp(smallest(block * STAT_BLOCK + STAT_BLOCK, n))
         _edge_strains(flat, indices, rest, lo, hi, block_strain)
         for i in range(hi - lo):  # not a slice assignment: that compiles numba's shape-error message
             strain[lo + i] = block_strain[i]
@@ -154,12 +155,12 @@ def _strain_extremes_between(indices, rest, cur, first, last, top, count, thresh
     n = last - first
     for block in range((n + STAT_BLOCK - 1) // STAT_BLOCK):
         lo = np.uintp(first + block * STAT_BLOCK)
-        hi = np.uintp(first + min(block * STAT_BLOCK + STAT_BLOCK, n))
+        hi = np.uintp(first + smallest(block * STAT_BLOCK + STAT_BLOCK, n))
         _edge_strains(flat, indices, rest, lo, hi, strain)
         for i in range(hi - lo):  # apart from the max, so that the sum vectorises
             total += np.float64(strain[i])
         block_worst = _block_max(strain, hi - lo, np.float32(-np.inf))
-        worst = max(worst, block_worst)
+        worst = largest(worst, block_worst)
         if m > 0 and not np.float64(block_worst) <= threshold:
             count, threshold = _offer_block(top, count, threshold, m, strain, hi - lo)
     return np.float64(worst), total, count, threshold
@@ -227,7 +228,7 @@ def _group_strains(indices, rest, spans, groups, g, q, cur, span_max, span_sum, 
 
 
 # Upper percentiles (the report's p99) from one pass over the values: values above a
-# threshold are appended to a buffer of candidates; when it fills, np.partition keeps the m
+# threshold are appended to a buffer of candidates; when it fills, a selection (_select) keeps the m
 # largest and their least becomes the threshold. Most values are turned away by one compare
 # (no branch: the append is undone by not counting it), so this costs about what the strains
 # themselves cost, where a heap of the m largest cost three times that on a hanging cloth
@@ -240,15 +241,15 @@ def _percentile_rank(n, q):
     ``position`` in the sorted values, between sorted[lo] and sorted[lo + 1], and the m = n - lo
     largest values hold both."""
     position = (n - 1) * (q / 100.0)
-    lo = min(int(np.floor(position)), n - 1)
-    return position, lo, max(n - lo, 0)
+    lo = smallest(int(np.floor(position)), n - 1)
+    return position, lo, largest(n - lo, 0)
 
 
 @kernel(inline="always")
 def _candidates(m):
     """The size of the candidate buffer for the m largest values (none for m = 0): room for
     4m (pruned when they are there) and one more block of values."""
-    return 0 if m == 0 else max(4 * m, 64) + STAT_BLOCK
+    return 0 if m == 0 else largest(4 * m, 64) + STAT_BLOCK
 
 
 @kernel(inline="always")
@@ -312,7 +313,7 @@ def _top_percentile(top, count, m, position, lo):
         return below
     above = top[first + 1]  # sorted[lo + 1]: the least of the others
     for i in range(first + 2, count):
-        above = min(above, top[i])
+        above = smallest(above, top[i])
     t = position - lo
     difference = above - below
     # numpy's interpolation, which rounds from the nearer end
@@ -332,7 +333,7 @@ def upper_percentile(values, q):
     top = np.empty(_candidates(m), np.float64)
     count, threshold = 0, np.nan
     for first in range(0, n, STAT_BLOCK):
-        block = values[first : min(first + STAT_BLOCK, n)]
+        block = values[first : smallest(first + STAT_BLOCK, n)]
         for i in range(block.shape[0]):
             if block[i] != block[i]:
                 return np.nan

@@ -35,6 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool._jit import kernel
+from clothtool._minmax import smallest
 from clothtool._simd import fill, lane, load4, vadd, vmul, vsub
 from clothtool.solver.kernels.air import triangle_air
 
@@ -121,7 +122,7 @@ def apply_wind(triangles, color_offsets, share, frame_matrix, frame_offset, air_
         for block in range((size + BLOCK - 1) // BLOCK):
             # unsigned indices: no negative-index wraparound code, which blocks vectorisation
             lo = np.uintp(first + block * BLOCK)
-            hi = np.uintp(first + min(block * BLOCK + BLOCK, size))
+            hi = np.uintp(first + smallest(block * BLOCK + BLOCK, size))
             _gather(triangles, share, lo, hi, frame_matrix, frame_offset, air_offset, flat, flat_prev, scratch)
             _impulses(hi - lo, drag, lift, density, scratch, impulse)
             for t in range(lo, hi):
