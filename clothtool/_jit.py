@@ -22,8 +22,6 @@ os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 import numba  # noqa: E402  (after the environment above)
 from numba.core import types as numba_types  # noqa: E402
-from numba.core.codegen import JITCodeLibrary  # noqa: E402
-from numba.core.compiler import Compiler  # noqa: E402
 from numba.core.datamodel import models, register_default  # noqa: E402
 from numba.core.dispatcher import Dispatcher  # noqa: E402
 from numba.core.registry import CPUDispatcher  # noqa: E402
@@ -79,8 +77,7 @@ class DeviceKernel(CPUDispatcher):
     """A helper of other kernels. Kernels that call it see (compile, and link in) its twin,
     compiled without the CPython and C wrappers: only a call from Python needs those, and
     they were about a third of a helper's compile time (their code went through LLVM too,
-    to be thrown away), and into a ``_TwinLibrary``: no module passes or machine code of its
-    own, its callers optimise it once where they link it in. The dispatcher itself, wrappers included, compiles only when Python
+    to be thrown away). The dispatcher itself, wrappers included, compiles only when Python
     calls it (the kernel tests). Same code either way: the wrappers only call the function."""
 
     twin: Dispatcher
@@ -119,64 +116,8 @@ def _compile_device(func, options: dict):
         return dispatcher
     dispatcher.__class__ = DeviceKernel  # made by njit as usual, then given the twin
     device = cast(DeviceKernel, dispatcher)
-    twin_options = {**options, "no_cpython_wrapper": True, "no_cfunc_wrapper": True, "pipeline_class": _TwinCompiler}
-    device.twin = _compile(_renamed(func, "_device"), twin_options)
+    device.twin = _compile(_renamed(func, "_device"), {**options, "no_cpython_wrapper": True, "no_cfunc_wrapper": True})
     return device
-
-
-class _TwinCompiler(Compiler):
-    """numba's usual pipeline, writing a device twin's code into a ``_TwinLibrary``."""
-
-    def compile_extra(self, func):
-        library = _TwinLibrary(self.state.targetctx.codegen(), func.__qualname__)
-        library.enable_object_caching()
-        self.state.library = library
-        return super().compile_extra(func)
-
-
-class _TwinLibrary(JITCodeLibrary):
-    """A device twin's code: LLVM IR that only its callers use, never machine code of its own.
-
-    numba finalises every compiled function's library on its own: the module passes at -O3
-    over its module (callees linked in), then machine code. A caller then links the
-    callee's optimised module into its own and runs the same module passes over the whole
-    (numba.core.codegen: CPUCodeLibrary.finalize links every ``add_linking_library`` and then
-    runs ``_optimize_final_module``; there is no option to link without it): a twin's code
-    was optimised once on its own and again in every caller, and compiled to machine code
-    that nothing calls. Here a twin keeps numba's per-function passes (``add_ir_module``)
-    and its callers do the rest once, inlined where they call it. Its cache entry is its
-    bitcode (numba's ``serialize_using_bitcode``; a process that loads it compiles it to machine
-    code as any loaded bitcode, which only happens when a caller is not in the cache)."""
-
-    def _optimize_final_module(self):
-        pass  # each caller optimises the linked code with its own
-
-    def _finalize_final_module(self):
-        # numba's version minus adding the module to the JIT engine (its machine code)
-        self._finalize_dynamic_globals()
-        self._verify_declare_only_symbols()
-        self._finalized = True
-
-    def serialize_using_object_code(self):
-        return self.serialize_using_bitcode()
-
-    @property
-    def codegen(self):
-        return _TwinCodegen(self._codegen)
-
-
-class _TwinCodegen:
-    """The codegen, as a twin's library shows it to numba's ``get_executable``: a twin has no
-    machine code, so no environment pointer to set (and nothing calls it from Python)."""
-
-    def __init__(self, codegen) -> None:
-        self._codegen = codegen
-
-    def set_env(self, env_name, env) -> None:
-        pass
-
-    def __getattr__(self, name):
-        return getattr(self._codegen, name)
 
 
 def _renamed(func, suffix: str):
