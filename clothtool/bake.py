@@ -38,7 +38,7 @@ STATS_FIELDS = ("max_speed", "kinetic_energy", "max_strain", "tether_stretch")
 @dataclasses.dataclass(frozen=True)
 class BakeOptions:
     """percentiles: also compute p99 strain per frame (in the same compiled pass over the
-        constraints: about 70% more stats time at 128^2);
+        constraints: about a third more stats time at 128^2);
     penetration: also measure how deep the faces sink into the colliders each frame
         (clothtool.solver.penetration; the command line's bakes do);
     compression / save_every: override the scene's output settings when given;
