@@ -228,11 +228,11 @@ def _group_strains(indices, rest, spans, groups, g, q, cur, span_max, span_sum, 
 
 
 # Upper percentiles (the report's p99) from one pass over the values: values above a
-# threshold are appended to a buffer of candidates; when it fills, a selection (_select) keeps the m
-# largest and their least becomes the threshold. Most values are turned away by one compare
-# (no branch: the append is undone by not counting it), so this costs about what the strains
-# themselves cost, where a heap of the m largest cost three times that on a hanging cloth
-# (whose strains grow along the constraint order, so most values entered the heap).
+# threshold are appended to a buffer of candidates; when it fills, a selection (_select)
+# keeps the m largest and their least becomes the threshold. Most values are turned away by
+# one compare (every value is written, and counted only when taken), so this costs about what
+# the strains themselves cost, where a heap of the m largest cost three times that on a
+# hanging cloth (whose strains grow along the constraint order, so most values entered it).
 
 
 @kernel(inline="always")
