@@ -27,16 +27,11 @@ class GroupMeasure:
     def __init__(self, group, meters: list[ClothMeter]):
         self.group = group
         self.meters = meters
-        cur = group.state.cur
-        # the members in the order of their rows of the merged state (found from each one's
-        # view of it), which frame_summary takes as consecutive particle ranges
-        first = [(meter.solver.state.cur.ctypes.data - cur.ctypes.data) // cur.strides[0] for meter in meters]
-        self._order = sorted(range(len(meters)), key=first.__getitem__)
+        # frame_summary's members in the group's order: member k owns rows group.offsets[k] ..
+        # group.offsets[k + 1] of the merged state
+        self._order = sorted(range(len(meters)), key=lambda k: meters[k].solver.index)
         ordered = [meters[k] for k in self._order]
         models = [meter.solver.model for meter in ordered]
-        particles = first[self._order[0]] + _offsets(m.particle_count for m in models)
-        if [first[k] for k in self._order] != particles[:-1].tolist():
-            raise ValueError("the members of a merged group are not consecutive rows of its state")
         constraint_base = _offsets(m.constraint_indices.shape[0] for m in models)
         span_base = _offsets(meter.span_bounds.shape[0] for meter in ordered)
         group_base = _offsets(len(meter.group_labels) for meter in ordered)
@@ -51,8 +46,8 @@ class GroupMeasure:
         self.motion = np.zeros((len(meters), 5))
         self._before = (
             np.concatenate([m.constraint_indices for m in models]), np.concatenate([m.constraint_rest_length for m in models]),
-            spans, groups, group_base, particles, _offsets(m.tether_anchor.shape[0] for m in models), PERCENTILE, cur,
-            group.state.prev, np.concatenate([np.zeros(particles[0]), *(m.mass for m in models)]),
+            spans, groups, group_base, np.asarray(group.offsets, np.int64), _offsets(m.tether_anchor.shape[0] for m in models),
+            PERCENTILE, group.state.cur, group.state.prev, np.concatenate([m.mass for m in models]),
         )
         self._after = (
             np.concatenate([m.tether_anchor for m in models]), np.concatenate([m.tether_rest_length for m in models]),
