@@ -313,19 +313,25 @@ class ClothSolver:
             points = np.empty((cur.shape[0], 3), cur.dtype)
             copy_xyz(cur, points)
             return points
-        return self.history.now.to_world(cur[:, :3]).astype(cur.dtype)
+        return self._moving_frame_rows(None)[0].astype(cur.dtype)
+
+    def _moving_frame_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """A cloth in a moving frame: its float64 (n,3) world points and, given h, its f32
+        world velocities over the last iteration (one world transform serves both)."""
+        now = self.history.now.to_world(self.state.cur[:, :3])
+        if h is None:
+            return now, None
+        before = self.history.before.to_world(self.state.prev[:, :3])
+        return now, ((now - before) / h).astype(np.float32)
 
     def cache_rows(self, h: float | None) -> tuple[np.ndarray, np.ndarray | None]:
         """See Integrator.cache_rows. Without a moving frame, straight from the state in one
         pass (kernels.rows.vertex_rows: the same bits, no particle-order copies between)."""
         cur = self.state.cur
-        if self.history is not None:  # world_points' and world_velocities' rows, sharing the world points
-            now = self.history.now.to_world(cur[:, :3])
+        if self.history is not None:
+            now, velocities = self._moving_frame_rows(h)
             points = in_vertex_order(self.model, now)  # rounded to float32 once, as world_points' were
-            if h is None:
-                return points, None
-            before = self.history.before.to_world(self.state.prev[:, :3])
-            return points, in_vertex_order(self.model, ((now - before) / h).astype(np.float32))
+            return points, None if velocities is None else in_vertex_order(self.model, velocities)
         order = self.model.fabric.vertex_particle
         if order is None:
             return cache_rows(self, h)
@@ -343,6 +349,4 @@ class ClothSolver:
             velocities = np.empty((self.state.cur.shape[0], 3), np.float32)
             xyz_velocity(self.state.cur, self.state.prev, self.state.cur.dtype.type(h), velocities)
             return velocities
-        now = self.history.now.to_world(self.state.cur[:, :3])
-        before = self.history.before.to_world(self.state.prev[:, :3])
-        return ((now - before) / h).astype(np.float32)
+        return self._moving_frame_rows(h)[1]
