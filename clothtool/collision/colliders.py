@@ -65,6 +65,11 @@ class ColliderArrays:
     triangle_mesh: np.ndarray = dataclasses.field(default_factory=lambda: _i32(0))
     mesh_margin: np.ndarray = dataclasses.field(default_factory=lambda: _f32(0))
     mesh_friction: np.ndarray = dataclasses.field(default_factory=lambda: _f32(0))
+    # (stacks, row) when these are row ``row`` of time-stacked arrays (a bake's prefetched
+    # colliders: clothtool.scene.colliders), whose ``sphere_worlds(dtype)`` is (T, s, 4)
+    # centres and radii and whose other arrays stand for every row; None otherwise. Where
+    # the arrays come from, not what they are: no part of comparing colliders (compare=False)
+    source: tuple | None = dataclasses.field(default=None, compare=False)
 
     @property
     def empty(self) -> bool:

@@ -317,6 +317,7 @@ class _ColliderSamples:
             mesh_friction=_f32(m_friction, -1),
         )
         self._no_mesh_points = np.zeros((0, 3), np.float32)
+        self._sphere_worlds: dict[np.dtype, np.ndarray] = {}
 
     @staticmethod
     def _planes(collider: Collider, linear: np.ndarray, translation: np.ndarray) -> np.ndarray:
@@ -348,7 +349,19 @@ class _ColliderSamples:
             plane=self.plane[row],
             mesh_points=self._mesh_points(row),
             **self.fixed,
+            source=(self, row),
         )
+
+    def sphere_worlds(self, dtype) -> np.ndarray:
+        """(T, s, 4) every time's sphere centres and radii in ``dtype`` (made once a dtype): a
+        cloth's collide stage poses the spheres from its rows (CollideStage.sphere_rows)."""
+        dtype = np.dtype(dtype)
+        worlds = self._sphere_worlds.get(dtype)
+        if worlds is None:
+            worlds = self._sphere_worlds[dtype] = np.empty((*self.sphere_radius.shape, 4), dtype)
+            worlds[..., :3] = self.sphere_center
+            worlds[..., 3] = self.sphere_radius
+        return worlds
 
 
 # ------------------------------------------------------------------------ loading

@@ -64,6 +64,13 @@ CELLS_PER_TRIANGLE = 16
 I32 = np.int32
 
 
+def _shared_stacks(start: ColliderArrays, end: ColliderArrays):
+    """The prefetched colliders ``start`` and ``end`` are both rows of, or None."""
+    if start.source is None or end.source is None or start.source[0] is not end.source[0]:
+        return None
+    return start.source[0]
+
+
 def _reuse(array: np.ndarray, shape: tuple) -> np.ndarray:
     """``array`` when it already has ``shape``, else a new zeroed array of its dtype."""
     if array.shape == tuple(shape):
@@ -104,40 +111,40 @@ def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtu
     names they use (the same every frame of a scene: built once, not per frame)."""
     lines = [
         "if it == 0:",
-        "    {pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha0}[it], 0, {sphere_start})",
+        "    {pose_spheres}({sphere_worlds}[{sphere_rows}[0]], {sphere_worlds}[{sphere_rows}[1]], {frames}[{row}[0] + it], {alpha0}[it], 0, {sphere_start})",
     ]
     if has_mesh:
         lines += ["    if {pose_mesh}[it]:",
-                  "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha0}[it], 0, {mesh_start})"]
+                  "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[{row}[0] + it], {alpha0}[it], 0, {mesh_start})"]
     lines += ["else:", *("    " + line for line in copy_lines("{sphere_end}", "{sphere_start}"))]
     if has_mesh:
         lines += ["    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
-    lines.append("{pose_spheres}({sphere_world0}, {sphere_world1}, {frames}[it], {alpha1}[it], 1, {sphere_end})")
+    lines.append("{pose_spheres}({sphere_worlds}[{sphere_rows}[0]], {sphere_worlds}[{sphere_rows}[1]], {frames}[{row}[0] + it], {alpha1}[it], 1, {sphere_end})")
     if has_planes:
-        lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[it], {alpha1}[it], 1, {plane_end})")
+        lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[{row}[0] + it], {alpha1}[it], 1, {plane_end})")
     lines += [
         "{pack_spheres}({sphere_start}, {sphere_end}, {sphere_colliders}, {sphere_params}, {sphere_data})",
         "{pack_capsules}({sphere_start}, {sphere_end}, {capsule_index}, {capsule_params}, {capsule_data})",
     ]
     if has_convexes:
-        lines.append("{convex_shift}({convex_translation}, {frames}[it], {alpha_step}[it], {convex_data})")
+        lines.append("{convex_shift}({convex_translation}, {frames}[{row}[0] + it], {alpha_step}[it], {convex_data})")
     if has_mesh:
         lines += [
             "if {pose_mesh}[it]:",
-            "    {pose_points}({mesh_world0}, {mesh_world1}, {frames}[it], {alpha1}[it], 1, {mesh_end})",
+            "    {pose_points}({mesh_world0}, {mesh_world1}, {frames}[{row}[0] + it], {alpha1}[it], 1, {mesh_end})",
             "    {pack_triangles}({mesh_start}, {mesh_end}, {triangles}, {triangle_params}, {triangle_data})",
         ]
     groups = ("({sphere_data}, {capsule_data}, {plane_end}, {convex_offsets}, {convex_data}), "
               "({triangle_data}, {cell_start}, {cell_items}, {cell_ranges}, {grid})")
-    lines.append("{collide}(" + groups + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+    lines.append("{collide}(" + groups + ", {frames}[{row}[0] + it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
     if has_virtual:
         lines.append("{collide_virtual}({virtual}, {virtual_weights}, " + groups
-                     + ", {frames}[it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+                     + ", {frames}[{row}[0] + it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
     if has_faces:
         lines.append("{collide_faces}({faces}, {sphere_data}, {capsule_data}, prev, {mass_scale}, {meters_per_unit}, cur)")
     if mesh_faces:
         lines.append("{collide_mesh_faces}({cloth_triangles}, {owners}, {triangle_data}, {cell_start}, {cell_items}, "
-                     "{cell_ranges}, {grid}, {frames}[it], prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
+                     "{cell_ranges}, {grid}, {frames}[{row}[0] + it], prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
                      "{face_record}, cur)")
     return tuple(lines), _names_in(tuple(lines))
 
@@ -148,7 +155,7 @@ _FUSED_INPUTS = operator.attrgetter(
     "cell_ranges", "cell_start", "cloth_triangles", "continuous", "convex_data", "convex_offsets",
     "convex_translation", "face_margin", "face_record", "faces", "frames", "grid", "kernel", "mass_scale",
     "mesh_end", "mesh_faces", "mesh_start", "mesh_world", "meters_per_unit", "owners", "plane_end", "plane_world",
-    "pose_mesh", "sphere_colliders", "sphere_data", "sphere_end", "sphere_params", "sphere_start", "sphere_world",
+    "pose_mesh", "row", "sphere_colliders", "sphere_data", "sphere_end", "sphere_params", "sphere_rows", "sphere_start", "sphere_worlds",
     "triangle_data", "triangle_params", "triangles", "virtual", "virtual_kernel", "virtual_weights"
 )
 
@@ -203,8 +210,15 @@ class CollideStage(Stage):
         self._faces_sized = False
         self.frame = np.zeros((8, 3))  # the cloth frame's poses at the iteration's start and end
         self.frame[0:3] = self.frame[4:7] = np.eye(3)
-        # world-space samples at the frame's start and end, and per-primitive parameters
-        self.sphere_world = (np.zeros((0, 4), real), np.zeros((0, 4), real))
+        # world-space samples at the frame's start and end, and per-primitive parameters: the
+        # spheres at rows sphere_rows of the time stack sphere_worlds (a bake's prefetched
+        # colliders: the same array every frame, only the rows move on; else the stage's own
+        # (2, s, 4) of the frame's start and end)
+        self.sphere_worlds = np.zeros((2, 0, 4), real)
+        self.sphere_rows = np.array([0, 1], np.int64)
+        self._sphere_rows = (0, 1)  # the same, as Python integers
+        self._stacks = None  # the prefetched colliders the layout was last copied from
+        self._copies_each_frame = True  # planes or meshes: copied every frame
         self.sphere_colliders = np.zeros(0, I32)
         self.sphere_params = np.zeros((0, 2), real)  # margin, friction
         self.capsule_index = np.zeros((0, 2), I32)
@@ -237,6 +251,10 @@ class CollideStage(Stage):
         # end (k,8,3), the collider interpolation's alphas, and whether the mesh is posed
         self.frames = np.zeros((1, 8, 3))
         self._frames_moved = True  # self.frames came from a track's poses (not the identity)
+        # iteration i's poses are frames[first + i] (FrameStacks), first also as the frame
+        # function's argument row (the same array every frame)
+        self._first = 0
+        self.row = np.zeros(1, np.int64)
         self.alpha0 = self.alpha1 = self.alpha_step = np.zeros(1)
         self._alpha_iterations = 0  # the iteration count the alphas are for
         self._layouts: dict[str, tuple] = {}  # see _same_layout
@@ -258,11 +276,17 @@ class CollideStage(Stage):
         start = colliders(plan.time)
         end = colliders(plan.end)
         if start is not self._copied[0] or end is not self._copied[1]:  # else: colliders fixed in time
-            self._check_same_layout(start, end, plan)
-            self._copy_spheres(start, end)
-            self._copy_convexes(start, end)
-            self._copy_meshes(start, end)
-            self.kernel = self._kernel_for(start)
+            stacks = _shared_stacks(start, end)
+            if stacks is None or stacks is not self._stacks or self._copies_each_frame:
+                self._check_same_layout(start, end, plan)
+                self._copy_spheres(start, end, stacks)
+                self._copy_convexes(start, end)
+                self._copy_meshes(start, end)
+                self.kernel = self._kernel_for(start)
+                self._stacks = stacks
+                self._copies_each_frame = start.plane.shape[0] > 0 or start.mesh_points.shape[0] > 0
+            else:  # the same prefetched colliders as last frame: their layout stands, the rows move on
+                self._set_sphere_rows(start.source[1], end.source[1])
             self._copied = (start, end)
         if self.face_collision and not self._faces_sized:
             self._add_faces(start)
@@ -278,15 +302,16 @@ class CollideStage(Stage):
             self.alpha_step = self.alpha1 - self.alpha0
         terms = self.solver.frame_terms
         if terms is not None:
-            # the cloth frame's poses at each iteration's start and end, copied into the array
-            # of the last frame (the same object every frame: fused_call's values stand)
-            if self.frames.shape != terms.pose_pairs.shape or not self._frames_moved:
-                self.frames = np.empty(terms.pose_pairs.shape)
-            np.copyto(self.frames, terms.pose_pairs)
+            # the cloth frame's poses at each iteration's start and end: rows of the frame
+            # motion's stack (the same array every frame of its chain: fused_call's values stand)
+            rows = terms.rows
+            self.frames, self._first = rows.pose_pairs, rows.first
         elif self.frames.shape[0] != k or self._frames_moved:
             self.frames = np.zeros((k, 8, 3))  # no track: the identity, the same every frame
             self.frames[:, 0:3] = self.frames[:, 4:7] = np.eye(3)
+            self._first = 0
         self._frames_moved = terms is not None
+        self.row[0] = self._first
         # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
         if self.pose_mesh.shape[0] != k:
             self.pose_mesh = np.zeros(k, np.bool_)
@@ -344,14 +369,23 @@ class CollideStage(Stage):
         self._layouts[kind] = arrays
         return False
 
-    def _copy_spheres(self, start: ColliderArrays, end: ColliderArrays) -> None:
+    def _set_sphere_rows(self, first: int, last: int) -> None:
+        self._sphere_rows = (first, last)
+        self.sphere_rows[0], self.sphere_rows[1] = first, last
+
+    def _copy_spheres(self, start: ColliderArrays, end: ColliderArrays, stacks) -> None:
         s = start.sphere_center.shape[0]
-        worlds = self.sphere_world
-        if worlds[0].shape[0] != s:
-            worlds = self.sphere_world = (np.zeros((s, 4), self.real), np.zeros((s, 4), self.real))
-        for world, arrays in zip(worlds, (start, end)):
-            world[:, :3] = arrays.sphere_center
-            world[:, 3] = arrays.sphere_radius
+        if stacks is not None:  # rows of the prefetched stack
+            self.sphere_worlds = stacks.sphere_worlds(self.real)
+            self._set_sphere_rows(start.source[1], end.source[1])
+        else:
+            worlds = self.sphere_worlds
+            if worlds.shape[1] != s or self._stacks is not None:
+                worlds = self.sphere_worlds = np.zeros((2, s, 4), self.real)
+            for world, arrays in zip(worlds, (start, end)):
+                world[:, :3] = arrays.sphere_center
+                world[:, 3] = arrays.sphere_radius
+            self._set_sphere_rows(0, 1)
         if self._same_layout("spheres", start, _SPHERE_LAYOUT):
             return
         self.sphere_start = _reuse(self.sphere_start, (s, 4))
@@ -445,19 +479,19 @@ class CollideStage(Stage):
         iteration's start, end at alpha1 with its pose at the end. ``fused_call`` is the same
         in the compiled frame function's terms."""
         i = iteration.index
-        frame = self.frame = self.frames[i]
+        frame = self.frame = self.frames[self._first + i]
         alpha0, alpha1 = self.alpha0[i], self.alpha1[i]
         # kinds the scene lacks are skipped (zero-length arrays): their kernels never compile
         pose_mesh = self.pose_mesh[i]
         if i == 0:
-            pose_spheres(*self.sphere_world, frame, alpha0, 0, self.sphere_start)
+            pose_spheres(*self._sphere_pair(), frame, alpha0, 0, self.sphere_start)
             if pose_mesh:
                 pose_points(*self.mesh_world, frame, alpha0, 0, self.mesh_start)
         else:  # the last iteration's end is this one's start
             np.copyto(self.sphere_start, self.sphere_end)
             if pose_mesh:
                 np.copyto(self.mesh_start, self.mesh_end)
-        pose_spheres(*self.sphere_world, frame, alpha1, 1, self.sphere_end)
+        pose_spheres(*self._sphere_pair(), frame, alpha1, 1, self.sphere_end)
         if self.plane_end.shape[0]:
             pose_planes(*self.plane_world, frame, alpha1, 1, self.plane_end)
         pack_spheres(self.sphere_start, self.sphere_end, self.sphere_colliders, self.sphere_params, self.sphere_data)
@@ -498,8 +532,8 @@ class CollideStage(Stage):
         """Every array and scalar the frame function's lines may name, by name, in the order of
         the frame function's parameters."""
         return {
-            "frames": self.frames, "alpha0": self.alpha0, "alpha1": self.alpha1, "alpha_step": self.alpha_step,
-            "pose_mesh": self.pose_mesh, "sphere_world0": self.sphere_world[0], "sphere_world1": self.sphere_world[1],
+            "frames": self.frames, "row": self.row, "alpha0": self.alpha0, "alpha1": self.alpha1, "alpha_step": self.alpha_step,
+            "pose_mesh": self.pose_mesh, "sphere_worlds": self.sphere_worlds, "sphere_rows": self.sphere_rows,
             "sphere_start": self.sphere_start, "sphere_end": self.sphere_end, "mesh_world0": self.mesh_world[0],
             "mesh_world1": self.mesh_world[1], "mesh_start": self.mesh_start, "mesh_end": self.mesh_end,
             "plane_world0": self.plane_world[0], "plane_world1": self.plane_world[1], "plane_end": self.plane_end,
@@ -515,8 +549,13 @@ class CollideStage(Stage):
             "face_margin": self.face_margin, "face_record": self.face_record, "faces": self.faces,
         }
 
+    def _sphere_pair(self) -> tuple[np.ndarray, np.ndarray]:
+        """The spheres at the frame's start and end: (s, 4) centres and radii."""
+        first, last = self._sphere_rows
+        return self.sphere_worlds[first], self.sphere_worlds[last]
+
     def end_fused_frame(self) -> None:
-        self.frame = self.frames[-1]
+        self.frame = self.frames[self._first + self._alpha_iterations - 1]
         if self.pose_mesh[0]:
             self._mesh_packed = self.mesh_still
 

@@ -244,6 +244,15 @@ class FrameTerms:
     pose_pairs: np.ndarray  # f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)
     # the frame motion computed ahead these rows come from (FrameMotionAhead, its rows), or None
     ahead: tuple | None = None
+    # the arrays the compiled frame function reads the rows above from (None: these arrays)
+    stacks: FrameStacks | None = None
+
+    @property
+    def rows(self) -> FrameStacks:
+        """The arrays the compiled frame function indexes at ``first + it``."""
+        if self.stacks is not None:
+            return self.stacks
+        return FrameStacks(0, self.m_cur, self.m_prev, self.bias, self.motion_matrix, self.motion_offset, self.pose_pairs)
 
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
@@ -259,6 +268,30 @@ class FrameTerms:
             ahead, rows = self.ahead
             return ahead.in_frame(vector, dtype)[rows]
         return np.ascontiguousarray(self.to_local @ vector, dtype)
+
+    def in_frame_rows(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
+        """``in_frame`` as rows of an array indexed like ``rows``' (iteration i at row
+        first + i): the frame motion's own when ``rows`` are the chain's, else ``in_frame``."""
+        if self.stacks is not None and self.ahead is not None:  # the chain's rows
+            return self.ahead[0].in_frame(vector, dtype)
+        return self.in_frame(vector, dtype)
+
+
+@dataclasses.dataclass(frozen=True)
+class FrameStacks:
+    """The arrays a frame's per-iteration terms are rows of, iteration i at row first + i.
+    The frame motion computed ahead (FrameMotionAhead) gives every frame of its chain the
+    same arrays with ``first`` moving on, so that a stage's arguments to the compiled frame
+    function stay the same objects from frame to frame (only the row moves); terms computed
+    for one frame are their own stacks from row 0."""
+
+    first: int
+    m_cur: np.ndarray
+    m_prev: np.ndarray
+    bias: np.ndarray
+    motion_matrix: np.ndarray
+    motion_offset: np.ndarray
+    pose_pairs: np.ndarray
 
 
 def pose_pairs(rotations: np.ndarray, translations: np.ndarray) -> np.ndarray:
@@ -345,11 +378,13 @@ def _scaled(motion: tuple, scales, dtype) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def _frame_terms(
-    motion: tuple, scales, dtype, poses: Sequence[Pose], rotations, translations, scaled=None, pairs=None, ahead=None
+    motion: tuple, scales, dtype, poses: Sequence[Pose], rotations, translations, scaled=None, pairs=None, ahead=None,
+    stacks=None,
 ) -> FrameTerms:
     """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales
     (``scaled``: their ``_scaled`` arrays, ``pairs``: the poses' ``pose_pairs``, when already
-    computed; ``ahead``: the FrameMotionAhead and rows they come from)."""
+    computed; ``ahead``: the FrameMotionAhead and rows they come from, ``stacks`` the
+    arrays of its chain they are rows of)."""
     m_cur, m_prev, bias = _scaled(motion, scales, dtype) if scaled is None else scaled
     motion_matrix, motion_offset, inv = motion[3:]
     return FrameTerms(
@@ -364,6 +399,7 @@ def _frame_terms(
         translations=translations,
         pose_pairs=pose_pairs(rotations, translations) if pairs is None else pairs,
         ahead=ahead,
+        stacks=stacks,
     )
 
 
@@ -387,6 +423,7 @@ class FrameMotionAhead:
         self.translations = chain.translations
         self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
         self.pose_pairs = pose_pairs(self.rotations, self.translations)
+        self._stacked_pairs = self.pose_pairs[1:]  # row j: the pair of the iteration after chain row j (FrameStacks)
         self._scaled: dict[tuple, tuple] = {}  # (scales, dtype) -> the chain's _scaled arrays
         self._last_scaled: tuple = (None, None, None)  # (scales object, dtype, its _scaled arrays)
         self._in_frame: tuple = (None, None)  # (vector bytes, the chain's to_local @ vector)
@@ -419,10 +456,13 @@ class FrameMotionAhead:
         rows = slice(j, j + k)
         poses = slice(j + 1, j + 2 + k)
         scaled = self._scaled_rows(scales, dtype, j, k)
+        stacks = None
+        if scaled is not None:  # every term a row of the chain's arrays
+            stacks = FrameStacks(j, *scaled, self.motion[3], self.motion[4], self._stacked_pairs)
         return _frame_terms(
             tuple(array[rows] for array in self.motion), scales, dtype, self.chain[poses], self.rotations[poses],
             self.translations[poses], None if scaled is None else tuple(array[rows] for array in scaled),
-            self.pose_pairs[j + 1 : j + 1 + k], (self, rows),
+            self.pose_pairs[j + 1 : j + 1 + k], (self, rows), stacks,
         )
 
     def in_frame(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:

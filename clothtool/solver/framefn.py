@@ -30,6 +30,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import importlib.util
+import operator
 import os
 import pickle
 import sys
@@ -200,11 +201,14 @@ class FusedFrame:
         self._calls: list[FusedCall] = []
         self._call_shapes: list[tuple] = []
         self._shape: tuple | None = None
+        self._values: list = []  # the last frame's argument values, in the calls' order
 
     def prepare(self, stages) -> tuple[object, list, bool]:
         """(function, argument values, True when the function is new in this solver)."""
         calls = [stage.fused_call() for stage in stages]
         last_calls, last_shapes = self._calls, self._call_shapes
+        if self._shape is not None and len(calls) == len(last_calls) and all(map(operator.is_, calls, last_calls)):
+            return self.function, self._values, False  # every call stands (a usual frame): so do the values
         if len(calls) == len(last_calls):
             shapes = [last if call is old else _call_shape(call) for call, old, last in zip(calls, last_calls, last_shapes)]
         else:
@@ -222,8 +226,8 @@ class FusedFrame:
         else:
             new = False
         self._calls, self._call_shapes = calls, shapes
-        values = [value for call in calls for value in call.args.values()]
-        return self.function, values, new
+        self._values = [value for call in calls for value in call.args.values()]
+        return self.function, self._values, new
 
 
 def _call_shape(call: FusedCall) -> tuple:
@@ -367,3 +371,27 @@ def _write_record(path: Path | None, record: dict) -> None:
 def stacked(values, dtype) -> np.ndarray:
     """A contiguous array of per-iteration values (a stack the frame function indexes)."""
     return np.ascontiguousarray(np.asarray(values, dtype))
+
+
+def held(array: np.ndarray | None, values, dtype) -> np.ndarray:
+    """``stacked(values, dtype)`` written into ``array`` when it has their shape and ``dtype``
+    (the same object as last frame, so that a stage's fused call stands: ``standing``)."""
+    values = np.asarray(values)
+    if array is None or array.shape != values.shape or array.dtype != np.dtype(dtype):
+        return stacked(values, dtype)
+    np.copyto(array, values, casting="same_kind")  # the conversion np.asarray(values, dtype) makes
+    return array
+
+
+def standing(call: FusedCall | None, lines: tuple[str, ...], args: dict, kernels: dict) -> FusedCall:
+    """``call`` when it is made of these very lines, argument objects and kernels (the last
+    frame's call: FusedFrame.prepare then has nothing to look at again), else a new call."""
+    if (
+        call is not None
+        and call.lines is lines
+        and call.kernels is kernels
+        and call.args.keys() == args.keys()
+        and all(value is call.args[name] for name, value in args.items())
+    ):
+        return call
+    return FusedCall(lines, args, kernels)

@@ -15,7 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.framefn import FusedCall, stacked
+from clothtool.solver.frame import FrameStacks
+from clothtool.solver.framefn import FusedCall, stacked, standing
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.integrate import integrate_affine, integrate_free, integrate_linear
 from clothtool.solver.stage import Stage
@@ -30,8 +31,17 @@ class IntegrateStage(Stage):
         self.free = self._free_cloth()
         self.mean = np.zeros(3, np.float64)  # integrate_free's mean displacement
         self._scales_of, self._h_of = None, None  # what begin_frame's values were computed from
+        # a moving frame's terms: the stacks they are rows of and the frame's first row in
+        # them (FrameStacks: the same arrays from frame to frame, so the fused call stands)
+        self.terms_rows: FrameStacks | None = None
+        self.row = np.zeros(1, np.int64)
+        self._fused: FusedCall | None = None
 
     def begin_frame(self, plan: FramePlan) -> None:
+        terms = self.solver.frame_terms
+        if terms is not None:
+            self.terms_rows = terms.rows
+            self.row[0] = self.terms_rows.first
         if self.solver.frame_scales is self._scales_of and plan.h == self._h_of:
             return  # the solver's scales and h as last frame: the same values
         self._scales_of, self._h_of = self.solver.frame_scales, plan.h
@@ -79,21 +89,23 @@ class IntegrateStage(Stage):
             integrate_affine(terms.m_cur[i], terms.m_prev[i], terms.bias[i], state.cur, state.prev)
 
     def fused_call(self) -> FusedCall:
-        terms = self.solver.frame_terms
-        if terms is None and self.free:
-            return FusedCall(
-                ("{integrate}({scales}[it], {spared}[it], {gravity_bias}, {mean}, cur, prev)",),
-                {"scales": self.scales, "spared": self.spared, "gravity_bias": self.gravity_bias, "mean": self.mean},
-                {"integrate": integrate_free},
-            )
-        if terms is None:
-            return FusedCall(
-                ("{integrate}({scales}[it], {gravity_bias}, cur, prev)",),
-                {"scales": self.scales, "gravity_bias": self.gravity_bias},
-                {"integrate": integrate_linear},
-            )
-        return FusedCall(
-            ("{integrate}({m_cur}[it], {m_prev}[it], {bias}[it], cur, prev)",),
-            {"m_cur": terms.m_cur, "m_prev": terms.m_prev, "bias": terms.bias},
-            {"integrate": integrate_affine},
-        )
+        if self.solver.frame_terms is not None:
+            rows = self.terms_rows
+            args = {"m_cur": rows.m_cur, "m_prev": rows.m_prev, "bias": rows.bias, "row": self.row}
+            lines, kernels = _AFFINE, _AFFINE_KERNEL
+        elif self.free:
+            args = {"scales": self.scales, "spared": self.spared, "gravity_bias": self.gravity_bias, "mean": self.mean}
+            lines, kernels = _FREE, _FREE_KERNEL
+        else:
+            lines, args, kernels = _LINEAR, {"scales": self.scales, "gravity_bias": self.gravity_bias}, _LINEAR_KERNEL
+        self._fused = standing(self._fused, lines, args, kernels)
+        return self._fused
+
+
+# the fused calls' lines and kernels (the same objects every frame: framefn.standing)
+_AFFINE = ("{integrate}({m_cur}[{row}[0] + it], {m_prev}[{row}[0] + it], {bias}[{row}[0] + it], cur, prev)",)
+_AFFINE_KERNEL = {"integrate": integrate_affine}
+_FREE = ("{integrate}({scales}[it], {spared}[it], {gravity_bias}, {mean}, cur, prev)",)
+_FREE_KERNEL = {"integrate": integrate_free}
+_LINEAR = ("{integrate}({scales}[it], {gravity_bias}, cur, prev)",)
+_LINEAR_KERNEL = {"integrate": integrate_linear}

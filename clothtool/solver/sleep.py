@@ -70,7 +70,7 @@ class SleepState:
 
 def _differs(a, b) -> bool:
     if dataclasses.is_dataclass(a):
-        return any(_differs(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
+        return any(_differs(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a) if f.compare)
     a, b = np.asarray(a), np.asarray(b)
     # NaN stands for "not given" in collider arrays (friction): equal to itself here, or a
     # scene with such a collider would count as moving every frame and never sleep

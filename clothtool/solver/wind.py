@@ -20,7 +20,7 @@ import numpy as np
 
 from clothtool.mesh.coloring import TripletScheduler
 from clothtool.solver.air import corner_shares
-from clothtool.solver.framefn import FusedCall, stacked
+from clothtool.solver.framefn import FusedCall, held, standing
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.wind import apply_wind
 from clothtool.solver.stage import Stage
@@ -49,19 +49,34 @@ class WindStage(Stage):
         self.drag = np.float32(material.drag_coefficient)
         self.lift = np.float32(material.lift_coefficient)
         self.density = np.float32(solver.environment.fluid_density * model.units_to_meters**3 / 12.0)
+        # per iteration i, at row row[0] + i (begin_frame): the frame's motion and the air in
+        # the cloth's frame, the same arrays from frame to frame where they can be (a moving
+        # frame's FrameStacks, held zeros and air without one), so that the fused call stands
+        self.matrix = self.offset = self.air = None
+        self.row = np.zeros(1, np.int64)
+        self._first = 0
+        self._still = False  # matrix and offset hold the zeros of a cloth without a track
+        self._fused: FusedCall | None = None
 
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver
         self.wind_world = solver.environment.wind_at(plan.time) * plan.h
         # per iteration: the frame's motion and the air's displacement in the cloth's frame
         terms = solver.frame_terms
+        k = plan.iterations
         if terms is None:
-            self.matrix = np.zeros((plan.iterations, 3, 3), np.float32)
-            self.offset = np.zeros((plan.iterations, 3), np.float32)
-            self.air = stacked(np.broadcast_to(self.wind_world, (plan.iterations, 3)), np.float32)
+            if not self._still or self.matrix.shape[0] != k:
+                self.matrix = np.zeros((k, 3, 3), np.float32)
+                self.offset = np.zeros((k, 3), np.float32)
+                self.air = None
+            self._still, self._first = True, 0
+            self.air = held(self.air, np.broadcast_to(self.wind_world, (k, 3)), np.float32)
         else:
-            self.matrix, self.offset = terms.motion_matrix, terms.motion_offset
-            self.air = terms.in_frame(self.wind_world, np.float32)  # contiguous rows, as stacked() gives
+            rows = terms.rows
+            self._still, self._first = False, rows.first
+            self.matrix, self.offset = rows.motion_matrix, rows.motion_offset
+            self.air = terms.in_frame_rows(self.wind_world, np.float32)  # contiguous rows, as stacked() gives
+        self.row[0] = self._first
 
     def warm_up(self) -> None:
         solver = self.solver
@@ -71,17 +86,20 @@ class WindStage(Stage):
 
     def run(self, iteration: Iteration) -> None:
         solver = self.solver
-        i = iteration.index
+        t = self._first + iteration.index
         apply_wind(
-            self.triangles, self.color_offsets, self.share, self.matrix[i], self.offset[i], self.air[i], self.drag,
+            self.triangles, self.color_offsets, self.share, self.matrix[t], self.offset[t], self.air[t], self.drag,
             self.lift, self.density, solver.state.cur, solver.state.prev,
         )
 
     def fused_call(self) -> FusedCall:
-        return FusedCall(
-            ("{wind}({triangles}, {color_offsets}, {share}, {matrix}[it], {offset}[it], {air}[it], {drag}, {lift}, "
-             "{density}, cur, prev)",),
-            {"triangles": self.triangles, "color_offsets": self.color_offsets, "share": self.share, "matrix": self.matrix,
-             "offset": self.offset, "air": self.air, "drag": self.drag, "lift": self.lift, "density": self.density},
-            {"wind": apply_wind},
-        )
+        args = {"triangles": self.triangles, "color_offsets": self.color_offsets, "share": self.share, "matrix": self.matrix,
+                "offset": self.offset, "air": self.air, "drag": self.drag, "lift": self.lift, "density": self.density,
+                "row": self.row}
+        self._fused = standing(self._fused, _LINES, args, _KERNELS)
+        return self._fused
+
+
+_LINES = ("{wind}({triangles}, {color_offsets}, {share}, {matrix}[{row}[0] + it], {offset}[{row}[0] + it], "
+          "{air}[{row}[0] + it], {drag}, {lift}, {density}, cur, prev)",)
+_KERNELS = {"wind": apply_wind}

@@ -59,14 +59,45 @@ def test_collide_call_is_kept_while_its_arrays_stand_and_made_again_when_one_cha
     assert collide.fused_call().args["frames"] is frames
 
 
-def test_collide_frames_hold_the_planned_pose_pairs(walk):
-    solver, plans = walk
-    collide = _stage(solver, "collide")
-    collide.begin_frame(plans[-1])
-    # a copy in the stage's own array, bit for bit the frame terms' pose pairs
-    assert collide.frames is not solver.frame_terms.pose_pairs
-    assert np.array_equal(collide.frames, solver.frame_terms.pose_pairs)
-    assert collide.pose_mesh.shape == (plans[-1].iterations,) and not collide.pose_mesh.any()
+def _walk_frames(count: int):
+    """The walk's cloth simulated frame by frame (compiled frames), yielding after each
+    frame's plan: (solver, plan)."""
+    scene = load_scene(EXAMPLES / "skirt" / "walk.toml")
+    solver = make_solvers(scene, StageProfiler())[0]
+    frame_dt = 1.0 / scene.fps
+    for frame in range(scene.start_frame + 1, scene.start_frame + 1 + count):
+        plan = solver.plan_frame(frame, scene.frame_time(frame - 1), frame_dt, scene.frame_time(frame))
+        yield solver, plan
+        assert solver.run_frame(plan)
+
+
+def test_moving_frame_calls_stand_from_frame_to_frame_with_their_rows_moving_on():
+    """The integrate, wind and collide calls of a cloth on a track are the same objects every
+    frame of the path computed ahead, their per-iteration values rows of the frame motion's
+    stacks from the frame's row on (only the row arrays' value moves), so prepare finds every
+    call standing and gives the last frame's values list again."""
+    last, kept = None, FusedFrame()
+    for solver, plan in _walk_frames(4):
+        calls = {stage.name: stage.fused_call() for stage in solver.stages}
+        k, terms = plan.iterations, solver.frame_terms
+        first = int(calls["integrate"].args["row"][0])
+        assert all(int(calls[name].args["row"][0]) == first for name in ("wind", "collide"))
+        integrate, wind, collide = calls["integrate"].args, calls["wind"].args, calls["collide"].args
+        assert np.array_equal(integrate["m_cur"][first : first + k], terms.m_cur)
+        assert np.array_equal(integrate["m_prev"][first : first + k], terms.m_prev)
+        assert np.array_equal(integrate["bias"][first : first + k], terms.bias)
+        assert np.array_equal(wind["matrix"][first : first + k], terms.motion_matrix)
+        assert np.array_equal(wind["offset"][first : first + k], terms.motion_offset)
+        air = terms.in_frame(_stage(solver, "wind").wind_world, np.float32)
+        assert np.array_equal(wind["air"][first : first + k], air)
+        assert np.array_equal(collide["frames"][first : first + k], terms.pose_pairs)
+        values = kept.prepare(solver.stages)[1]
+        if last is not None:
+            last_calls, last_values, last_first = last
+            assert first == last_first + k
+            assert all(calls[name] is last_calls[name] for name in calls)
+            assert values is last_values
+        last = calls, values, first
 
 
 def test_prepare_gives_a_fresh_preparations_function_and_values_every_frame(walk):
