@@ -458,7 +458,8 @@ class FrameMotionAhead:
         scaled = self._scaled_rows(scales, dtype, j, k)
         stacks = None
         if scaled is not None:  # every term a row of the chain's arrays
-            stacks = FrameStacks(j, *scaled, self.motion[3], self.motion[4], self._stacked_pairs)
+            m_cur, m_prev, bias = scaled
+            stacks = FrameStacks(j, m_cur, m_prev, bias, self.motion[3], self.motion[4], self._stacked_pairs)
         return _frame_terms(
             tuple(array[rows] for array in self.motion), scales, dtype, self.chain[poses], self.rotations[poses],
             self.translations[poses], None if scaled is None else tuple(array[rows] for array in scaled),

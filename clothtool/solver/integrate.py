@@ -89,8 +89,8 @@ class IntegrateStage(Stage):
             integrate_affine(terms.m_cur[i], terms.m_prev[i], terms.bias[i], state.cur, state.prev)
 
     def fused_call(self) -> FusedCall:
-        if self.solver.frame_terms is not None:
-            rows = self.terms_rows
+        rows = self.terms_rows
+        if self.solver.frame_terms is not None and rows is not None:
             args = {"m_cur": rows.m_cur, "m_prev": rows.m_prev, "bias": rows.bias, "row": self.row}
             lines, kernels = _AFFINE, _AFFINE_KERNEL
         elif self.free:
