@@ -254,7 +254,9 @@ class ClothSolver:
             return False
         self.prev_h = plan.h
         if self.frame_terms is not None:
-            self.history.before, self.history.now = self.frame_terms.poses[-2:]
+            poses = self.frame_terms.poses
+            last = len(poses) - 1
+            self.history.before, self.history.now = poses[last - 1], poses[last]
         if self.sleep.asleep:
             return True
         function, values, new = self._fused.prepare(self.stages)

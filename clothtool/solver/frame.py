@@ -82,6 +82,10 @@ class PoseRows(Sequence):
     def __len__(self) -> int:
         return self.rotations.shape[0]
 
+    def __iter__(self):
+        # Sequence's own __iter__ asks for rows until IndexError: an exception per loop
+        return map(self.__getitem__, range(len(self)))
+
     def __getitem__(self, index):
         if isinstance(index, slice):
             start, stop, step = index.indices(len(self))
