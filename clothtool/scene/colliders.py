@@ -343,14 +343,14 @@ class _ColliderSamples:
         return _f32(np.concatenate(points), (-1, 3))
 
     def arrays(self, row: int) -> ColliderArrays:
-        return ColliderArrays(
-            sphere_center=self.sphere_center[row],
-            sphere_radius=self.sphere_radius[row],
-            plane=self.plane[row],
-            mesh_points=self._mesh_points(row),
+        return ColliderArrays.of({
             **self.fixed,
-            source=(self, row),
-        )
+            "sphere_center": self.sphere_center[row],
+            "sphere_radius": self.sphere_radius[row],
+            "plane": self.plane[row],
+            "mesh_points": self._mesh_points(row),
+            "source": (self, row),
+        })
 
     def sphere_worlds(self, dtype) -> np.ndarray:
         """(T, s, 4) every time's sphere centres and radii in ``dtype`` (made once a dtype): a

@@ -314,13 +314,10 @@ class CollideStage(Stage):
         self.row[0] = self._first
         # a mesh that stands still in the cloth's frame is posed and packed once, not per iteration
         if self.pose_mesh.shape[0] != k:
-            self.pose_mesh = np.zeros(k, np.bool_)
-        else:
-            self.pose_mesh[:] = False
+            self.pose_mesh = np.zeros(k, np.bool_)  # without meshes: False throughout, never set
         if self.mesh_world[0].shape[0]:
-            if not self.mesh_still:
-                self.pose_mesh[:] = True
-            else:
+            self.pose_mesh[:] = not self.mesh_still
+            if self.mesh_still:
                 self.pose_mesh[0] = not self._mesh_packed
 
     def _kernel_for(self, colliders: ColliderArrays):

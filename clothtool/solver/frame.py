@@ -27,6 +27,7 @@ stiffness-frequency step and converted in log space like damping.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Sequence
 from typing import Callable
 
@@ -232,31 +233,94 @@ class IterationTerms:
 
 
 @dataclasses.dataclass(frozen=True)
+class FrameStacks:
+    """The arrays a frame's per-iteration terms are rows of, iteration i at row first + i
+    (``rotations`` and ``translations``: the frame's pose at its start at row first, at the
+    end of iteration i at row first + i + 1). The frame motion computed ahead
+    (FrameMotionAhead) gives every frame of its chain the same arrays with ``first`` moving
+    on, so that a stage's arguments to the compiled frame function stay the same objects
+    from frame to frame (only the row moves); terms computed for one frame are their own
+    stacks from row 0."""
+
+    first: int
+    m_cur: np.ndarray  # in the state's precision
+    m_prev: np.ndarray
+    bias: np.ndarray
+    motion_matrix: np.ndarray  # f32
+    motion_offset: np.ndarray  # f32
+    to_local: np.ndarray  # f64
+    pose_pairs: np.ndarray  # f64
+    rotations: np.ndarray  # f64
+    translations: np.ndarray  # f64
+    # the FrameMotionAhead whose chain these arrays are (its in_frame rows line up), or None
+    chain: FrameMotionAhead | None = None
+
+
+@dataclasses.dataclass(frozen=True)
 class FrameTerms:
     """IterationTerms of every iteration of a frame, stacked (first axis: the iteration), and
-    the frame's poses at the iterations' ends, preceded by its pose at the frame's start."""
+    the frame's poses at the iterations' ends, preceded by its pose at the frame's start.
+    The arrays are rows of ``stacks`` (what the compiled frame function indexes), sliced
+    when first asked for: a frame of the fused bake asks for none of them."""
 
-    m_cur: np.ndarray  # (k,3,3) in the state's precision
-    m_prev: np.ndarray
-    bias: np.ndarray  # (k,3)
-    motion_matrix: np.ndarray  # f32 (k,3,3)
-    motion_offset: np.ndarray  # f32 (k,3)
-    to_local: np.ndarray  # f64 (k,3,3)
+    stacks: FrameStacks
+    iterations: int  # k
     poses: Sequence[Pose]  # k + 1 poses
-    rotations: np.ndarray  # f64 (k+1,3,3): the poses' rotations, stacked
-    translations: np.ndarray  # f64 (k+1,3): ... and translations
-    pose_pairs: np.ndarray  # f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)
     # the frame motion computed ahead these rows come from (FrameMotionAhead, its rows), or None
     ahead: tuple | None = None
-    # the arrays the compiled frame function reads the rows above from (None: these arrays)
-    stacks: FrameStacks | None = None
+
+    def _rows(self, array: np.ndarray, extra: int = 0) -> np.ndarray:
+        first = self.stacks.first
+        return array[first : first + self.iterations + extra]
+
+    @functools.cached_property
+    def m_cur(self) -> np.ndarray:
+        """(k,3,3) in the state's precision."""
+        return self._rows(self.stacks.m_cur)
+
+    @functools.cached_property
+    def m_prev(self) -> np.ndarray:
+        return self._rows(self.stacks.m_prev)
+
+    @functools.cached_property
+    def bias(self) -> np.ndarray:
+        """(k,3) in the state's precision."""
+        return self._rows(self.stacks.bias)
+
+    @functools.cached_property
+    def motion_matrix(self) -> np.ndarray:
+        """f32 (k,3,3)."""
+        return self._rows(self.stacks.motion_matrix)
+
+    @functools.cached_property
+    def motion_offset(self) -> np.ndarray:
+        """f32 (k,3)."""
+        return self._rows(self.stacks.motion_offset)
+
+    @functools.cached_property
+    def to_local(self) -> np.ndarray:
+        """f64 (k,3,3)."""
+        return self._rows(self.stacks.to_local)
+
+    @functools.cached_property
+    def pose_pairs(self) -> np.ndarray:
+        """f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)."""
+        return self._rows(self.stacks.pose_pairs)
+
+    @functools.cached_property
+    def rotations(self) -> np.ndarray:
+        """f64 (k+1,3,3): the poses' rotations, stacked."""
+        return self._rows(self.stacks.rotations, 1)
+
+    @functools.cached_property
+    def translations(self) -> np.ndarray:
+        """f64 (k+1,3): ... and translations."""
+        return self._rows(self.stacks.translations, 1)
 
     @property
     def rows(self) -> FrameStacks:
         """The arrays the compiled frame function indexes at ``first + it``."""
-        if self.stacks is not None:
-            return self.stacks
-        return FrameStacks(0, self.m_cur, self.m_prev, self.bias, self.motion_matrix, self.motion_offset, self.pose_pairs)
+        return self.stacks
 
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
@@ -275,27 +339,9 @@ class FrameTerms:
 
     def in_frame_rows(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
         """``in_frame`` as rows of an array indexed like ``rows``' (iteration i at row
-        first + i): the frame motion's own when ``rows`` are the chain's, else ``in_frame``."""
-        if self.stacks is not None and self.ahead is not None:  # the chain's rows
-            return self.ahead[0].in_frame(vector, dtype)
-        return self.in_frame(vector, dtype)
-
-
-@dataclasses.dataclass(frozen=True)
-class FrameStacks:
-    """The arrays a frame's per-iteration terms are rows of, iteration i at row first + i.
-    The frame motion computed ahead (FrameMotionAhead) gives every frame of its chain the
-    same arrays with ``first`` moving on, so that a stage's arguments to the compiled frame
-    function stay the same objects from frame to frame (only the row moves); terms computed
-    for one frame are their own stacks from row 0."""
-
-    first: int
-    m_cur: np.ndarray
-    m_prev: np.ndarray
-    bias: np.ndarray
-    motion_matrix: np.ndarray
-    motion_offset: np.ndarray
-    pose_pairs: np.ndarray
+        first + i): the frame motion's own when ``rows`` are its chain's, else ``in_frame``."""
+        chain = self.stacks.chain
+        return chain.in_frame(vector, dtype) if chain is not None else self.in_frame(vector, dtype)
 
 
 def pose_pairs(rotations: np.ndarray, translations: np.ndarray) -> np.ndarray:
@@ -381,30 +427,16 @@ def _scaled(motion: tuple, scales, dtype) -> tuple[np.ndarray, np.ndarray, np.nd
     )
 
 
-def _frame_terms(
-    motion: tuple, scales, dtype, poses: Sequence[Pose], rotations, translations, scaled=None, pairs=None, ahead=None,
-    stacks=None,
-) -> FrameTerms:
-    """FrameTerms from ``_frame_motion``'s arrays and the iterations' velocity scales
-    (``scaled``: their ``_scaled`` arrays, ``pairs``: the poses' ``pose_pairs``, when already
-    computed; ``ahead``: the FrameMotionAhead and rows they come from, ``stacks`` the
-    arrays of its chain they are rows of)."""
-    m_cur, m_prev, bias = _scaled(motion, scales, dtype) if scaled is None else scaled
+def _frame_terms(motion: tuple, scales, dtype, poses: Sequence[Pose], rotations, translations) -> FrameTerms:
+    """FrameTerms of one frame from ``_frame_motion``'s arrays (its rows only) and the
+    iterations' velocity scales: its own stacks, from row 0."""
+    m_cur, m_prev, bias = _scaled(motion, scales, dtype)
     motion_matrix, motion_offset, inv = motion[3:]
-    return FrameTerms(
-        m_cur=m_cur,
-        m_prev=m_prev,
-        bias=bias,
-        motion_matrix=motion_matrix,
-        motion_offset=motion_offset,
-        to_local=inv,
-        poses=poses,
-        rotations=rotations,
-        translations=translations,
-        pose_pairs=pose_pairs(rotations, translations) if pairs is None else pairs,
-        ahead=ahead,
-        stacks=stacks,
+    stacks = FrameStacks(
+        0, m_cur, m_prev, bias, motion_matrix, motion_offset, inv, pose_pairs(rotations, translations), rotations,
+        translations,
     )
+    return FrameTerms(stacks, motion_matrix.shape[0], poses)
 
 
 class FrameMotionAhead:
@@ -427,10 +459,14 @@ class FrameMotionAhead:
         self.translations = chain.translations
         self.motion = _frame_motion(self.rotations, self.translations, gravity, h, inertia, stiffness_frequency)
         self.pose_pairs = pose_pairs(self.rotations, self.translations)
-        self._stacked_pairs = self.pose_pairs[1:]  # row j: the pair of the iteration after chain row j (FrameStacks)
+        # FrameStacks of a frame from chain row j: row j is its first iteration's (pose pair) or
+        # its start pose (rotations, translations), one row past the chain's
+        self._stacked_pairs = self.pose_pairs[1:]
+        self._stacked_rotations, self._stacked_translations = self.rotations[1:], self.translations[1:]
         self._scaled: dict[tuple, tuple] = {}  # (scales, dtype) -> the chain's _scaled arrays
         self._last_scaled: tuple = (None, None, None)  # (scales object, dtype, its _scaled arrays)
         self._in_frame: tuple = (None, None)  # (vector bytes, the chain's to_local @ vector)
+        self._in_frame_of: tuple = (None, None)  # (the read-only vector, dtype) _in_frame was last asked for
         self._made: tuple = (None, None, {})  # (scales, dtype, {row: FrameTerms}) made ahead (terms)
 
     def terms(self, history: FrameHistory, ends: list[float], scales, h: float, dtype) -> FrameTerms | None:
@@ -456,27 +492,33 @@ class FrameMotionAhead:
         return self._terms_at(j, k, scales, dtype)
 
     def _terms_at(self, j: int, k: int, scales, dtype) -> FrameTerms:
-        """The terms of the frame of ``k`` iterations from chain row ``j`` (its P_{n-1})."""
+        """The terms of the frame of ``k`` iterations from chain row ``j`` (its P_{n-1}): rows
+        of the chain's stacks, or (scales that give no chain-long stacks) the frame's own."""
         rows = slice(j, j + k)
-        poses = slice(j + 1, j + 2 + k)
         scaled = self._scaled_rows(scales, dtype, j, k)
-        stacks = None
-        if scaled is not None:  # every term a row of the chain's arrays
-            m_cur, m_prev, bias = scaled
-            stacks = FrameStacks(j, m_cur, m_prev, bias, self.motion[3], self.motion[4], self._stacked_pairs)
-        return _frame_terms(
-            tuple(array[rows] for array in self.motion), scales, dtype, self.chain[poses], self.rotations[poses],
-            self.translations[poses], None if scaled is None else tuple(array[rows] for array in scaled),
-            self.pose_pairs[j + 1 : j + 1 + k], (self, rows), stacks,
-        )
+        if scaled is None:
+            first, (m_cur, m_prev, bias) = 0, _scaled(tuple(array[rows] for array in self.motion), scales, dtype)
+            motion_matrix, motion_offset, to_local = (array[rows] for array in self.motion[3:])
+            pairs = self.pose_pairs[j + 1 : j + 1 + k]
+            rotations, translations, chain = self.rotations[j + 1 : j + 2 + k], self.translations[j + 1 : j + 2 + k], None
+        else:  # every term a row of the chain's arrays
+            first, (m_cur, m_prev, bias) = j, scaled
+            motion_matrix, motion_offset, to_local = self.motion[3:]
+            pairs, rotations, translations, chain = self._stacked_pairs, self._stacked_rotations, self._stacked_translations, self
+        stacks = FrameStacks(first, m_cur, m_prev, bias, motion_matrix, motion_offset, to_local, pairs, rotations, translations,
+                             chain)
+        return FrameTerms(stacks, k, self.chain[j + 1 : j + 2 + k], (self, rows))
 
     def in_frame(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
         """(n-2,3) in ``dtype``: ``vector`` (3,) in the frame at the end of each of the chain's
         iterations (R^T v), for the last vector and dtype asked for (a still or steady wind:
         every frame; converted once, element by element: the bits of converting a frame's rows)."""
+        if vector is self._in_frame_of[0] and dtype is self._in_frame_of[1]:  # a read-only vector asked again
+            return self._in_frame[1]
         key = (np.asarray(vector, np.float64).tobytes(), np.dtype(dtype))
         if self._in_frame[0] != key:
             self._in_frame = (key, np.ascontiguousarray(self.motion[5] @ vector, dtype))
+        self._in_frame_of = (vector, dtype) if isinstance(vector, np.ndarray) and not vector.flags.writeable else (None, None)
         return self._in_frame[1]
 
     def _scaled_rows(self, scales, dtype, j: int, k: int):

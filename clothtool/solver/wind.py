@@ -26,6 +26,8 @@ from clothtool.solver.kernels.wind import apply_wind
 from clothtool.solver.stage import Stage
 
 _NO_MOTION = (np.zeros((3, 3), np.float32), np.zeros(3, np.float32))
+_STILL_AIR = np.zeros(3)  # the air's displacement over an iteration without wind
+_STILL_AIR.flags.writeable = False
 
 
 class WindStage(Stage):
@@ -60,7 +62,10 @@ class WindStage(Stage):
 
     def begin_frame(self, plan: FramePlan) -> None:
         solver = self.solver
-        self.wind_world = solver.environment.wind_at(plan.time) * plan.h
+        if solver.environment.wind is None:  # still air: the same (read-only) zeros every frame
+            self.wind_world = _STILL_AIR
+        else:
+            self.wind_world = solver.environment.wind_at(plan.time) * plan.h
         # per iteration: the frame's motion and the air's displacement in the cloth's frame
         terms = solver.frame_terms
         k = plan.iterations

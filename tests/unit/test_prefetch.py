@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from clothtool.bake import _track_path, _track_times
+from clothtool.collision.colliders import ColliderArrays
 from clothtool.loading import load_scene
 from clothtool.scene.tracks import euler_xyz_to_quat, quat_to_matrix
 from clothtool.solver import frame as frame_module
@@ -426,3 +427,17 @@ def _copying_every_frame(begin_frame):
         return begin_frame(self, plan)
 
     return begin
+
+
+def test_collider_arrays_of_fields_is_what_init_makes(scene):
+    """ColliderArrays.of (the prefetch's rows: no generated __init__) gives the object
+    ColliderArrays(**fields) gives: every field, frozen, no field missing."""
+    scene.colliders.prefetch([0.0, 0.1])
+    made = scene.colliders.at(0.1)
+    fields = {field.name: getattr(made, field.name) for field in dataclasses.fields(made)}
+    assert vars(made).keys() == fields.keys()
+    initialised = ColliderArrays(**fields)
+    for name, value in fields.items():
+        assert getattr(initialised, name) is value
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        made.sphere_center = None
