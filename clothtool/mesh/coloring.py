@@ -100,9 +100,9 @@ class TripletScheduler:
         hi = self.elements.max(axis=1) if self.elements.size else np.zeros(0, np.int64)
         return np.lexsort((hi, lo))
 
-    def _colors(self, order: np.ndarray) -> np.ndarray:
+    def _colors(self, order: np.ndarray, lower_bound: int) -> np.ndarray:
         k = max(self.elements.shape[1], 1)
-        bound = max(self.lower_bound(), 1)
+        bound = max(lower_bound, 1)
         words = (k * bound) // 64 + 1  # greedy never needs more than k*(bound-1)+1 colours
         return _greedy_colors(self.elements[order], self.movable, words)
 
@@ -112,12 +112,13 @@ class TripletScheduler:
         if c == 0:
             return Schedule(np.zeros(0, np.int64), np.zeros(1, np.int32), 0)
         order = self._locality_order()
-        colors = self._colors(order)
+        bound = self.lower_bound()
+        colors = self._colors(order, bound)
         by_color = np.argsort(colors, kind="stable")
         counts = np.bincount(colors)
         offsets = np.zeros(counts.shape[0] + 1, np.int32)
         np.cumsum(counts, out=offsets[1:])
-        return Schedule(order[by_color], offsets, self.lower_bound())
+        return Schedule(order[by_color], offsets, bound)
 
     def batches(self, width: int) -> Schedule:
         """Conflict-free batches of at most ``width`` rows (the sets, cut into chunks)."""

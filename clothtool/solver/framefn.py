@@ -383,15 +383,17 @@ def held(array: np.ndarray | None, values, dtype) -> np.ndarray:
     return array
 
 
-def standing(call: FusedCall | None, lines: tuple[str, ...], args: dict, kernels: dict) -> FusedCall:
-    """``call`` when it is made of these very lines, argument objects and kernels (the last
-    frame's call: FusedFrame.prepare then has nothing to look at again), else a new call."""
+def standing(call: FusedCall | None, lines: tuple[str, ...], names: tuple[str, ...], values: tuple,
+             kernels: dict) -> FusedCall:
+    """``call`` when it is made of these very lines, kernels and argument objects (``values``,
+    by ``names``: the last frame's call, so FusedFrame.prepare has nothing to look at again),
+    else a new call."""
     if (
         call is not None
         and call.lines is lines
         and call.kernels is kernels
-        and call.args.keys() == args.keys()
-        and all(value is call.args[name] for name, value in args.items())
+        and len(call.args) == len(values)
+        and all(map(operator.is_, values, call.args.values()))
     ):
         return call
-    return FusedCall(lines, args, kernels)
+    return FusedCall(lines, dict(zip(names, values)), kernels)

@@ -90,22 +90,24 @@ class IntegrateStage(Stage):
 
     def fused_call(self) -> FusedCall:
         rows = self.terms_rows
+        call: tuple
         if self.solver.frame_terms is not None and rows is not None:
-            args = {"m_cur": rows.m_cur, "m_prev": rows.m_prev, "bias": rows.bias, "row": self.row}
-            lines, kernels = _AFFINE, _AFFINE_KERNEL
+            call = (_AFFINE, _AFFINE_NAMES, (rows.m_cur, rows.m_prev, rows.bias, self.row), _AFFINE_KERNEL)
         elif self.free:
-            args = {"scales": self.scales, "spared": self.spared, "gravity_bias": self.gravity_bias, "mean": self.mean}
-            lines, kernels = _FREE, _FREE_KERNEL
+            call = (_FREE, _FREE_NAMES, (self.scales, self.spared, self.gravity_bias, self.mean), _FREE_KERNEL)
         else:
-            lines, args, kernels = _LINEAR, {"scales": self.scales, "gravity_bias": self.gravity_bias}, _LINEAR_KERNEL
-        self._fused = standing(self._fused, lines, args, kernels)
+            call = (_LINEAR, _LINEAR_NAMES, (self.scales, self.gravity_bias), _LINEAR_KERNEL)
+        self._fused = standing(self._fused, *call)
         return self._fused
 
 
 # the fused calls' lines and kernels (the same objects every frame: framefn.standing)
 _AFFINE = ("{integrate}({m_cur}[{row}[0] + it], {m_prev}[{row}[0] + it], {bias}[{row}[0] + it], cur, prev)",)
+_AFFINE_NAMES = ("m_cur", "m_prev", "bias", "row")
 _AFFINE_KERNEL = {"integrate": integrate_affine}
 _FREE = ("{integrate}({scales}[it], {spared}[it], {gravity_bias}, {mean}, cur, prev)",)
+_FREE_NAMES = ("scales", "spared", "gravity_bias", "mean")
 _FREE_KERNEL = {"integrate": integrate_free}
 _LINEAR = ("{integrate}({scales}[it], {gravity_bias}, cur, prev)",)
+_LINEAR_NAMES = ("scales", "gravity_bias")
 _LINEAR_KERNEL = {"integrate": integrate_linear}

@@ -98,13 +98,13 @@ class WindStage(Stage):
         )
 
     def fused_call(self) -> FusedCall:
-        args = {"triangles": self.triangles, "color_offsets": self.color_offsets, "share": self.share, "matrix": self.matrix,
-                "offset": self.offset, "air": self.air, "drag": self.drag, "lift": self.lift, "density": self.density,
-                "row": self.row}
-        self._fused = standing(self._fused, _LINES, args, _KERNELS)
+        values = (self.triangles, self.color_offsets, self.share, self.matrix, self.offset, self.air, self.drag, self.lift,
+                  self.density, self.row)
+        self._fused = standing(self._fused, _LINES, _NAMES, values, _KERNELS)
         return self._fused
 
 
 _LINES = ("{wind}({triangles}, {color_offsets}, {share}, {matrix}[{row}[0] + it], {offset}[{row}[0] + it], "
           "{air}[{row}[0] + it], {drag}, {lift}, {density}, cur, prev)",)
+_NAMES = ("triangles", "color_offsets", "share", "matrix", "offset", "air", "drag", "lift", "density", "row")
 _KERNELS = {"wind": apply_wind}
