@@ -63,7 +63,7 @@ def motion_summary(cur, prev, masses, inv_dt):
         if check != 0.0 or check != check:  # a non-finite speed: skip those one by one
             for k in range(count):
                 s = speed_sqr[k]
-                if not s - s == 0.0:  # inf or NaN
+                if not np.isfinite(s):
                     if bad < 0:
                         bad = lo + k
                     speed_sqr[k] = np.nan  # skipped by the maximum
