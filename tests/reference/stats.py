@@ -155,16 +155,3 @@ def _top_percentile(top, count, m, position, lo):
     above = kept[1]
     t = position - lo
     return above - (above - below) * (1.0 - t) if t >= 0.5 else below + (above - below) * t
-
-
-def _group_strains(indices, rest, spans, groups, g, q, cur, span_max, span_sum, percentiles):
-    """frame_summary's strain figures of group g (its spans' extremes; its percentile when
-    percentiles is not empty)."""
-    spans = np.asarray(spans)
-    strains = []
-    for s in range(groups[g], groups[g + 1]):
-        first, last = spans[s]
-        span_max[s], span_sum[s] = _strain_extremes_between(indices, rest, cur, first, last)
-        strains.append(constraint_strain(np.asarray(indices)[first:last], np.asarray(rest)[first:last], cur))
-    if len(percentiles):
-        percentiles[g] = upper_percentile(np.concatenate([np.zeros(0), *strains]), q)

@@ -31,7 +31,7 @@ def _block_max(values, count, worst):
     return largest(largest(w0, w1), largest(w2, w3))
 
 
-@kernel(fastmath={"contract", "reassoc"})
+@kernel(device=True, fastmath={"contract", "reassoc"})
 def motion_summary(cur, prev, masses, inv_dt):
     """Over all particles: (max speed, kinetic energy, index of the fastest particle,
     index of the first non-finite particle or -1). Speeds from (cur - prev) / dt, the
@@ -41,7 +41,7 @@ def motion_summary(cur, prev, masses, inv_dt):
     flat = cur.reshape(-1)
     prev_flat = prev.reshape(-1)
     inv_dt_sqr = inv_dt * inv_dt
-    speed_sqr = np.empty(STAT_BLOCK)
+    speed_sqr = np.empty(np.int64(STAT_BLOCK), np.float64)  # typed as frame_summary's candidates: one np.empty compiled
     max_speed_sqr = 0.0
     fastest = 0
     energy = 0.0
@@ -51,7 +51,8 @@ def motion_summary(cur, prev, masses, inv_dt):
         count = smallest(STAT_BLOCK, n - lo)
         for k in range(count):
             d = vsub(load4(flat, 4 * (lo + k)), load4(prev_flat, 4 * (lo + k)))  # in the state's precision
-            speed_sqr[k] = (np.float64(lane(d, 0)) ** 2 + np.float64(lane(d, 1)) ** 2 + np.float64(lane(d, 2)) ** 2) * inv_dt_sqr
+            dx, dy, dz = np.float64(lane(d, 0)), np.float64(lane(d, 1)), np.float64(lane(d, 2))
+            speed_sqr[k] = (dx * dx + dy * dy + dz * dz) * inv_dt_sqr  # x * x, not x ** 2: that compiles numba's int_power
         # Infinite or NaN exactly when one of the six coordinates is: differences of finite
         # float32 values (< 7e38) times any sane 1/dt cannot overflow float64 when squared
         # (a float64 state with coordinates near 1e150 has long exceeded solver.max_speed).
@@ -83,7 +84,7 @@ def motion_summary(cur, prev, masses, inv_dt):
     return np.sqrt(max_speed_sqr), energy, fastest, bad
 
 
-@kernel
+@kernel(device=True)
 def tether_stretch(anchors, lengths, cur):
     """Largest tether stretch |p - anchor| / length - 1 over active tethers; 0 when no tether
     is stretched (slack tethers do not count as negative stretch).
@@ -159,7 +160,9 @@ def _strain_extremes_between(indices, rest, cur, first, last, top, count, thresh
         _edge_strains(flat, indices, rest, lo, hi, strain)
         for i in range(hi - lo):  # apart from the max, so that the sum vectorises
             total += np.float64(strain[i])
-        block_worst = _block_max(strain, hi - lo, np.float32(-np.inf))
+        # the count and start typed as motion_summary's call types them: a float64 state
+        # compiles one _block_max, not two (the maximum's value is the same)
+        block_worst = _block_max(strain, np.int64(hi - lo), strain.dtype.type(-np.inf))
         worst = largest(worst, block_worst)
         if m > 0 and not np.float64(block_worst) <= threshold:
             count, threshold = _offer_block(top, count, threshold, m, strain, hi - lo)
@@ -193,38 +196,39 @@ def frame_summary(indices, rest, spans, groups, members, particles, tethers, q, 
     were one array (offered to the candidates as they are measured, none stored);
     motion[j] = member j's motion_summary (max speed, kinetic energy, fastest particle,
     first non-finite particle) and tether_stretch (0 without tethers). Each figure has the
-    bits the member's own call gives."""
+    bits the member's own call gives.
+
+    A group's figures are worked out here rather than in a helper of their own: each helper
+    is a compilation of its own whose LLVM code, with all it inlines, every caller optimises
+    again (that level cost ~0.3 s of the ~2.5 s CPU a cold start spent compiling the stats
+    kernels). motion_summary and
+    tether_stretch are device kernels: called from here, they compile without the CPython
+    wrapper only a call from Python needs."""
     for j in range(members.shape[0] - 1):
         own, own_prev = cur[particles[j] : particles[j + 1]], prev[particles[j] : particles[j + 1]]
-        for g in range(members[j], members[j + 1]):
-            _group_strains(indices, rest, spans, groups, g, q, own, span_max, span_sum, percentiles)
+        for g in range(members[j], members[j + 1]):  # group g's strain figures
+            n = 0
+            for s in range(groups[g], groups[g + 1]):
+                n += spans[s, 1] - spans[s, 0]
+            position, lo, m = _percentile_rank(n, q)
+            if percentiles.shape[0] == 0:
+                m = 0
+            top = np.empty(_candidates(m), np.float64)
+            count, threshold = 0, np.nan
+            nan = False
+            for s in range(groups[g], groups[g + 1]):
+                span_max[s], span_sum[s], count, threshold = _strain_extremes_between(
+                    indices, rest, own, spans[s, 0], spans[s, 1], top, count, threshold, m
+                )
+                nan = nan or span_sum[s] != span_sum[s]  # a NaN strain makes the sum NaN (strains are >= -1)
+            if m > 0:
+                percentiles[g] = np.nan if n == 0 or nan else _top_percentile(top, count, m, position, lo)
         speed, energy, fastest, bad = motion_summary(own, own_prev, masses[particles[j] : particles[j + 1]], inv_dt)
         motion[j, 0] = speed
         motion[j, 1] = energy
         motion[j, 2] = fastest
         motion[j, 3] = bad
         motion[j, 4] = tether_stretch(anchors[tethers[j] : tethers[j + 1]], tether_lengths[tethers[j] : tethers[j + 1]], own)
-
-
-@kernel(inline="always", fastmath={"contract", "reassoc"})
-def _group_strains(indices, rest, spans, groups, g, q, cur, span_max, span_sum, percentiles):
-    """frame_summary's strain figures of group g."""
-    n = 0
-    for s in range(groups[g], groups[g + 1]):
-        n += spans[s, 1] - spans[s, 0]
-    position, lo, m = _percentile_rank(n, q)
-    if percentiles.shape[0] == 0:
-        m = 0
-    top = np.empty(_candidates(m), np.float64)
-    count, threshold = 0, np.nan
-    nan = False
-    for s in range(groups[g], groups[g + 1]):
-        span_max[s], span_sum[s], count, threshold = _strain_extremes_between(
-            indices, rest, cur, spans[s, 0], spans[s, 1], top, count, threshold, m
-        )
-        nan = nan or span_sum[s] != span_sum[s]  # a NaN strain makes the sum NaN (strains are >= -1)
-    if m > 0:
-        percentiles[g] = np.nan if n == 0 or nan else _top_percentile(top, count, m, position, lo)
 
 
 # Upper percentiles (the report's p99) from one pass over the values: values above a
@@ -241,7 +245,7 @@ def _percentile_rank(n, q):
     ``position`` in the sorted values, between sorted[lo] and sorted[lo + 1], and the m = n - lo
     largest values hold both."""
     position = (n - 1) * (q / 100.0)
-    lo = smallest(int(np.floor(position)), n - 1)
+    lo = smallest(np.int64(np.floor(position)), n - 1)  # np.int64, not int(): no overload to compile
     return position, lo, largest(n - lo, 0)
 
 
