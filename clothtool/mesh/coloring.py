@@ -18,6 +18,7 @@ each other.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -96,8 +97,11 @@ class TripletScheduler:
     def _locality_order(self) -> np.ndarray:
         # Rows sorted by their smallest and then largest particle index: neighbouring rows
         # touch neighbouring memory, and greedy colouring of a grid in this order is optimal.
-        lo = self.elements.min(axis=1) if self.elements.size else np.zeros(0, np.int64)
-        hi = self.elements.max(axis=1) if self.elements.size else np.zeros(0, np.int64)
+        if not self.elements.size:
+            return np.lexsort((np.zeros(0, np.int64), np.zeros(0, np.int64)))
+        # column by column: numpy's min(axis=1) over rows of 2-4 entries is ~10x slower
+        columns = self.elements.T
+        lo, hi = functools.reduce(np.minimum, columns), functools.reduce(np.maximum, columns)
         return np.lexsort((hi, lo))
 
     def _colors(self, order: np.ndarray, lower_bound: int) -> np.ndarray:

@@ -234,13 +234,16 @@ def _track_matrices(colliders: tuple[Collider, ...], times: np.ndarray, prefetch
     track's id; None's: the identity), each as ``collider.matrix`` gives it. The tracks are
     sampled together (sample_tracks) and, with ``prefetch_tracks``, keep their samples."""
     tracks = list({id(c.track): c.track for c in colliders if c.track is not None}.values())
+    samples = sample_tracks(tracks, times)
+    # every track's rotation matrices in one call (row by row: the bits of one call each)
+    turns = quat_to_matrices(np.concatenate([rotations for _, rotations, _ in samples])) if samples else None
     matrices = {}
-    for track, (translations, rotations, scales) in zip(tracks, sample_tracks(tracks, times)):
+    for n, (track, (translations, rotations, scales)) in enumerate(zip(tracks, samples)):
         if prefetch_tracks:
             track.prefetch(times, (translations, rotations, scales))
         m = np.zeros((times.shape[0], 4, 4))
         m[:] = np.eye(4)
-        m[:, :3, :3] = quat_to_matrices(rotations) * scales[:, None, :]
+        m[:, :3, :3] = turns[n * times.shape[0] : (n + 1) * times.shape[0]] * scales[:, None, :]
         m[:, :3, 3] = translations
         matrices[id(track)] = m
     identity = np.zeros((times.shape[0], 4, 4))

@@ -29,8 +29,12 @@ def corner_shares(model) -> np.ndarray:
     """f32 (n,) share_i = 3 a_i / S_i of ``model`` (module docstring)."""
     n = model.particle_count
     tri = model.triangles
-    pos = model.rest_pos.astype(np.float64)
-    area = 0.5 * np.linalg.norm(np.cross(pos[tri[:, 1]] - pos[tri[:, 0]], pos[tri[:, 2]] - pos[tri[:, 0]]), axis=1)
+    # the areas as np.linalg.norm(np.cross(u, w), axis=1) gives them, with the same operations
+    # on contiguous (t,) rows of the corners gathered at once (a third of the time at a bake's start)
+    p = np.ascontiguousarray(np.moveaxis(np.take(model.rest_pos.astype(np.float64), tri, axis=0), 0, -1))
+    (ux, uy, uz), (wx, wy, wz) = p[1] - p[0], p[2] - p[0]
+    cx, cy, cz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+    area = 0.5 * np.sqrt(cx * cx + cy * cy + cz * cz)
     # each particle's triangles' areas summed in the order np.add.at would add them corner by
     # corner (bincount adds its weights in order too: the same bits, a tenth of the time)
     around = np.bincount(tri.T.ravel(), np.tile(area, 3), minlength=n)[:n]
