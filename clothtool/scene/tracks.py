@@ -107,13 +107,13 @@ def slerp_many(a: np.ndarray, b: np.ndarray, t: np.ndarray) -> np.ndarray:
     b = np.where(dot[:, None] < 0.0, -b, b)
     dot = np.abs(dot)
     t = t[:, None]
-    near = dot > 0.9995  # nearly parallel: lerp is accurate and avoids dividing by sin ~ 0
+    near = (dot > 0.9995)[:, None]  # nearly parallel: lerp is accurate and avoids dividing by sin ~ 0
     lerped = a + t * (b - a)
     lerped /= np.linalg.norm(lerped, axis=1, keepdims=True)
     theta = np.arccos(np.minimum(dot, 1.0))[:, None]
-    sin = np.where(near[:, None], 1.0, np.sin(theta))
+    sin = np.where(near, 1.0, np.sin(theta))
     arc = (np.sin((1 - t) * theta) * a + np.sin(t * theta) * b) / sin
-    return np.where(near[:, None], lerped, arc)
+    return np.where(near, lerped, arc)
 
 
 def slerp(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
@@ -321,12 +321,15 @@ def _catmull_rom(values: np.ndarray, t: np.ndarray, i, a, d, u: np.ndarray) -> n
     """Non-uniform Catmull-Rom (tangents from the neighbouring keys' times) of key ``values``
     at key ``t`` seconds: each row between keys i and i+1 at parameter u, a and d the keys
     before and after them. Row by row: a row's bits do not depend on the rows with it."""
-    span = (t[i + 1] - t[i])[:, None]
-    m1 = (values[i + 1] - values[a]) / (t[i + 1] - t[a])[:, None] * span
-    m2 = (values[d] - values[i]) / (t[d] - t[i])[:, None] * span
+    following = i + 1
+    t_i, t_next = t[i], t[following]  # each gathered once (a bake samples hundreds of rows)
+    v_i, v_next = values[i], values[following]
+    span = (t_next - t_i)[:, None]
+    m1 = (v_next - values[a]) / (t_next - t[a])[:, None] * span
+    m2 = (values[d] - v_i) / (t[d] - t_i)[:, None] * span
     u = u[:, None]
     u2, u3 = u * u, u * u * u
-    return (2 * u3 - 3 * u2 + 1) * values[i] + (u3 - 2 * u2 + u) * m1 + (-2 * u3 + 3 * u2) * values[i + 1] + (u3 - u2) * m2
+    return (2 * u3 - 3 * u2 + 1) * v_i + (u3 - 2 * u2 + u) * m1 + (-2 * u3 + 3 * u2) * v_next + (u3 - u2) * m2
 
 
 def _spherical_cubic(rotations: np.ndarray, controls: np.ndarray, i, c, u: np.ndarray) -> np.ndarray:
