@@ -453,6 +453,8 @@ def simulate_frame(solvers: list[Integrator], plans: list, whole_frames: bool) -
     iteration (so that cloths see each other's current state)."""
     if whole_frames:
         pending = [(s, p) for s, p in zip(solvers, plans) if not s.run_frame(p)]
+        if not pending:
+            return
     else:
         pending = list(zip(solvers, plans))
     for index in range(max((p.iterations for _, p in pending), default=0)):
