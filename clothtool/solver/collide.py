@@ -104,6 +104,12 @@ def _in_order(kind: str, names: dict, used: frozenset[str]) -> tuple[str, ...]:
 _ORDERS: dict[tuple[str, frozenset[str]], tuple[str, ...]] = {}
 
 
+# the spheres at the frame's start and end (rows of CollideStage.sphere_worlds) and the cloth
+# frame's poses at iteration ``it`` (a row of the frame motion's stack), in the lines below
+_SPHERES = "{sphere_worlds}[{sphere_rows}[0]], {sphere_worlds}[{sphere_rows}[1]]"
+_FRAME = "{frames}[{row}[0] + it]"
+
+
 @functools.lru_cache(maxsize=None)
 def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtual: bool, has_faces: bool,
                  mesh_faces: bool) -> tuple[tuple[str, ...], frozenset[str]]:
@@ -111,40 +117,40 @@ def _fused_lines(has_mesh: bool, has_planes: bool, has_convexes: bool, has_virtu
     names they use (the same every frame of a scene: built once, not per frame)."""
     lines = [
         "if it == 0:",
-        "    {pose_spheres}({sphere_worlds}[{sphere_rows}[0]], {sphere_worlds}[{sphere_rows}[1]], {frames}[{row}[0] + it], {alpha0}[it], 0, {sphere_start})",
+        "    {pose_spheres}(" + _SPHERES + ", " + _FRAME + ", {alpha0}[it], 0, {sphere_start})",
     ]
     if has_mesh:
         lines += ["    if {pose_mesh}[it]:",
-                  "        {pose_points}({mesh_world0}, {mesh_world1}, {frames}[{row}[0] + it], {alpha0}[it], 0, {mesh_start})"]
+                  "        {pose_points}({mesh_world0}, {mesh_world1}, " + _FRAME + ", {alpha0}[it], 0, {mesh_start})"]
     lines += ["else:", *("    " + line for line in copy_lines("{sphere_end}", "{sphere_start}"))]
     if has_mesh:
         lines += ["    if {pose_mesh}[it]:", *("        " + line for line in copy_lines("{mesh_end}", "{mesh_start}"))]
-    lines.append("{pose_spheres}({sphere_worlds}[{sphere_rows}[0]], {sphere_worlds}[{sphere_rows}[1]], {frames}[{row}[0] + it], {alpha1}[it], 1, {sphere_end})")
+    lines.append("{pose_spheres}(" + _SPHERES + ", " + _FRAME + ", {alpha1}[it], 1, {sphere_end})")
     if has_planes:
-        lines.append("{pose_planes}({plane_world0}, {plane_world1}, {frames}[{row}[0] + it], {alpha1}[it], 1, {plane_end})")
+        lines.append("{pose_planes}({plane_world0}, {plane_world1}, " + _FRAME + ", {alpha1}[it], 1, {plane_end})")
     lines += [
         "{pack_spheres}({sphere_start}, {sphere_end}, {sphere_colliders}, {sphere_params}, {sphere_data})",
         "{pack_capsules}({sphere_start}, {sphere_end}, {capsule_index}, {capsule_params}, {capsule_data})",
     ]
     if has_convexes:
-        lines.append("{convex_shift}({convex_translation}, {frames}[{row}[0] + it], {alpha_step}[it], {convex_data})")
+        lines.append("{convex_shift}({convex_translation}, " + _FRAME + ", {alpha_step}[it], {convex_data})")
     if has_mesh:
         lines += [
             "if {pose_mesh}[it]:",
-            "    {pose_points}({mesh_world0}, {mesh_world1}, {frames}[{row}[0] + it], {alpha1}[it], 1, {mesh_end})",
+            "    {pose_points}({mesh_world0}, {mesh_world1}, " + _FRAME + ", {alpha1}[it], 1, {mesh_end})",
             "    {pack_triangles}({mesh_start}, {mesh_end}, {triangles}, {triangle_params}, {triangle_data})",
         ]
     groups = ("({sphere_data}, {capsule_data}, {plane_end}, {convex_offsets}, {convex_data}), "
               "({triangle_data}, {cell_start}, {cell_items}, {cell_ranges}, {grid})")
-    lines.append("{collide}(" + groups + ", {frames}[{row}[0] + it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+    lines.append("{collide}(" + groups + ", " + _FRAME + ", prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
     if has_virtual:
         lines.append("{collide_virtual}({virtual}, {virtual_weights}, " + groups
-                     + ", {frames}[{row}[0] + it], prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
+                     + ", " + _FRAME + ", prev, {continuous}, {mass_scale}, {meters_per_unit}, cur)")
     if has_faces:
         lines.append("{collide_faces}({faces}, {sphere_data}, {capsule_data}, prev, {mass_scale}, {meters_per_unit}, cur)")
     if mesh_faces:
         lines.append("{collide_mesh_faces}({cloth_triangles}, {owners}, {triangle_data}, {cell_start}, {cell_items}, "
-                     "{cell_ranges}, {grid}, {frames}[{row}[0] + it], prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
+                     "{cell_ranges}, {grid}, " + _FRAME + ", prev, {face_margin}, {mass_scale}, {meters_per_unit}, "
                      "{face_record}, cur)")
     return tuple(lines), _names_in(tuple(lines))
 
@@ -155,8 +161,8 @@ _FUSED_INPUTS = operator.attrgetter(
     "cell_ranges", "cell_start", "cloth_triangles", "continuous", "convex_data", "convex_offsets",
     "convex_translation", "face_margin", "face_record", "faces", "frames", "grid", "kernel", "mass_scale",
     "mesh_end", "mesh_faces", "mesh_start", "mesh_world", "meters_per_unit", "owners", "plane_end", "plane_world",
-    "pose_mesh", "row", "sphere_colliders", "sphere_data", "sphere_end", "sphere_params", "sphere_rows", "sphere_start", "sphere_worlds",
-    "triangle_data", "triangle_params", "triangles", "virtual", "virtual_kernel", "virtual_weights"
+    "pose_mesh", "row", "sphere_colliders", "sphere_data", "sphere_end", "sphere_params", "sphere_rows", "sphere_start",
+    "sphere_worlds", "triangle_data", "triangle_params", "triangles", "virtual", "virtual_kernel", "virtual_weights"
 )
 
 
@@ -304,7 +310,7 @@ class CollideStage(Stage):
         if terms is not None:
             # the cloth frame's poses at each iteration's start and end: rows of the frame
             # motion's stack (the same array every frame of its chain: fused_call's values stand)
-            rows = terms.rows
+            rows = terms.stacks
             self.frames, self._first = rows.pose_pairs, rows.first
         elif self.frames.shape[0] != k or self._frames_moved:
             self.frames = np.zeros((k, 8, 3))  # no track: the identity, the same every frame

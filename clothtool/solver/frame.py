@@ -317,11 +317,6 @@ class FrameTerms:
         """f64 (k+1,3): ... and translations."""
         return self._rows(self.stacks.translations, 1)
 
-    @property
-    def rows(self) -> FrameStacks:
-        """The arrays the compiled frame function indexes at ``first + it``."""
-        return self.stacks
-
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
             self.m_cur[index], self.m_prev[index], self.bias[index], self.motion_matrix[index], self.motion_offset[index],
@@ -338,8 +333,8 @@ class FrameTerms:
         return np.ascontiguousarray(self.to_local @ vector, dtype)
 
     def in_frame_rows(self, vector: np.ndarray, dtype=np.float64) -> np.ndarray:
-        """``in_frame`` as rows of an array indexed like ``rows``' (iteration i at row
-        first + i): the frame motion's own when ``rows`` are its chain's, else ``in_frame``."""
+        """``in_frame`` as rows of an array indexed like the stacks (iteration i at row
+        first + i): the frame motion's own when the stacks are its chain's, else ``in_frame``."""
         chain = self.stacks.chain
         return chain.in_frame(vector, dtype) if chain is not None else self.in_frame(vector, dtype)
 

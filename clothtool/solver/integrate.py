@@ -33,15 +33,15 @@ class IntegrateStage(Stage):
         self._scales_of, self._h_of = None, None  # what begin_frame's values were computed from
         # a moving frame's terms: the stacks they are rows of and the frame's first row in
         # them (FrameStacks: the same arrays from frame to frame, so the fused call stands)
-        self.terms_rows: FrameStacks | None = None
+        self.terms_stacks: FrameStacks | None = None
         self.row = np.zeros(1, np.int64)
         self._fused: FusedCall | None = None
 
     def begin_frame(self, plan: FramePlan) -> None:
         terms = self.solver.frame_terms
         if terms is not None:
-            self.terms_rows = terms.rows
-            self.row[0] = self.terms_rows.first
+            self.terms_stacks = terms.stacks
+            self.row[0] = self.terms_stacks.first
         if self.solver.frame_scales is self._scales_of and plan.h == self._h_of:
             return  # the solver's scales and h as last frame: the same values
         self._scales_of, self._h_of = self.solver.frame_scales, plan.h
@@ -89,10 +89,10 @@ class IntegrateStage(Stage):
             integrate_affine(terms.m_cur[i], terms.m_prev[i], terms.bias[i], state.cur, state.prev)
 
     def fused_call(self) -> FusedCall:
-        rows = self.terms_rows
+        stacks = self.terms_stacks
         call: tuple
-        if self.solver.frame_terms is not None and rows is not None:
-            call = (_AFFINE, _AFFINE_NAMES, (rows.m_cur, rows.m_prev, rows.bias, self.row), _AFFINE_KERNEL)
+        if self.solver.frame_terms is not None and stacks is not None:
+            call = (_AFFINE, _AFFINE_NAMES, (stacks.m_cur, stacks.m_prev, stacks.bias, self.row), _AFFINE_KERNEL)
         elif self.free:
             call = (_FREE, _FREE_NAMES, (self.scales, self.spared, self.gravity_bias, self.mean), _FREE_KERNEL)
         else:

@@ -77,7 +77,7 @@ class WindStage(Stage):
             self._still, self._first = True, 0
             self.air = held(self.air, np.broadcast_to(self.wind_world, (k, 3)), np.float32)
         else:
-            rows = terms.rows
+            rows = terms.stacks
             self._still, self._first = False, rows.first
             self.matrix, self.offset = rows.motion_matrix, rows.motion_offset
             self.air = terms.in_frame_rows(self.wind_world, np.float32)  # contiguous rows, as stacked() gives
