@@ -27,9 +27,8 @@ stiffness-frequency step and converted in log space like damping.
 from __future__ import annotations
 
 import dataclasses
-import functools
 from collections.abc import Sequence
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -256,6 +255,26 @@ class FrameStacks:
     chain: FrameMotionAhead | None = None
 
 
+class _StackRows:
+    """A FrameTerms array: the frame's rows of its stacks' array of the same name (``extra``
+    rows more), sliced when first asked for and then kept in the instance."""
+
+    def __init__(self, extra: int = 0):
+        self.extra = extra
+        self.name = ""
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name = name
+
+    def __get__(self, terms, owner=None) -> Any:
+        if terms is None:
+            return self
+        first = terms.stacks.first
+        rows = getattr(terms.stacks, self.name)[first : first + terms.iterations + self.extra]
+        terms.__dict__[self.name] = rows  # the instance's own from now on (a non-data descriptor)
+        return rows
+
+
 @dataclasses.dataclass(frozen=True)
 class FrameTerms:
     """IterationTerms of every iteration of a frame, stacked (first axis: the iteration), and
@@ -269,53 +288,15 @@ class FrameTerms:
     # the frame motion computed ahead these rows come from (FrameMotionAhead, its rows), or None
     ahead: tuple | None = None
 
-    def _rows(self, array: np.ndarray, extra: int = 0) -> np.ndarray:
-        first = self.stacks.first
-        return array[first : first + self.iterations + extra]
-
-    @functools.cached_property
-    def m_cur(self) -> np.ndarray:
-        """(k,3,3) in the state's precision."""
-        return self._rows(self.stacks.m_cur)
-
-    @functools.cached_property
-    def m_prev(self) -> np.ndarray:
-        return self._rows(self.stacks.m_prev)
-
-    @functools.cached_property
-    def bias(self) -> np.ndarray:
-        """(k,3) in the state's precision."""
-        return self._rows(self.stacks.bias)
-
-    @functools.cached_property
-    def motion_matrix(self) -> np.ndarray:
-        """f32 (k,3,3)."""
-        return self._rows(self.stacks.motion_matrix)
-
-    @functools.cached_property
-    def motion_offset(self) -> np.ndarray:
-        """f32 (k,3)."""
-        return self._rows(self.stacks.motion_offset)
-
-    @functools.cached_property
-    def to_local(self) -> np.ndarray:
-        """f64 (k,3,3)."""
-        return self._rows(self.stacks.to_local)
-
-    @functools.cached_property
-    def pose_pairs(self) -> np.ndarray:
-        """f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)."""
-        return self._rows(self.stacks.pose_pairs)
-
-    @functools.cached_property
-    def rotations(self) -> np.ndarray:
-        """f64 (k+1,3,3): the poses' rotations, stacked."""
-        return self._rows(self.stacks.rotations, 1)
-
-    @functools.cached_property
-    def translations(self) -> np.ndarray:
-        """f64 (k+1,3): ... and translations."""
-        return self._rows(self.stacks.translations, 1)
+    m_cur = _StackRows()  # (k,3,3) in the state's precision
+    m_prev = _StackRows()
+    bias = _StackRows()  # (k,3) in the state's precision
+    motion_matrix = _StackRows()  # f32 (k,3,3)
+    motion_offset = _StackRows()  # f32 (k,3)
+    to_local = _StackRows()  # f64 (k,3,3)
+    pose_pairs = _StackRows()  # f64 (k,8,3): each iteration's start and end pose (``pose_pairs``)
+    rotations = _StackRows(extra=1)  # f64 (k+1,3,3): the poses' rotations, stacked
+    translations = _StackRows(extra=1)  # f64 (k+1,3): ... and translations
 
     def at(self, index: int) -> IterationTerms:
         return IterationTerms(
