@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from clothtool.solver.framefn import FusedCall
+from clothtool.solver.framefn import FusedCall, standing
 from clothtool.solver.iteration import FramePlan, Iteration
 from clothtool.solver.kernels.constraints import constrain_motion
 from clothtool.solver.logstiffness import iteration_stiffness
@@ -15,7 +15,13 @@ from clothtool.solver.stage import Stage
 class MotionStage(Stage):
     name = "motion"
 
+    _h: float | None = None  # the iteration length the values are for
+    _fused: FusedCall | None = None  # the last fused_call, kept while its values stand
+
     def begin_frame(self, plan: FramePlan) -> None:
+        if plan.h == self._h:  # frames of one bake usually share their iteration length
+            return
+        self._h = plan.h
         motion = self.solver.model.motion
         self.scale = np.float32(motion.scale)
         self.bias = np.float32(motion.bias)
@@ -31,9 +37,11 @@ class MotionStage(Stage):
         constrain_motion(self.solver.motion_centers, model.max_distance, self.scale, self.bias, self.stiffness, self.solver.state.cur)
 
     def fused_call(self) -> FusedCall:
-        return FusedCall(
-            ("{motion}({centers}, {max_distance}, {scale}, {bias}, {stiffness}, cur)",),
-            {"centers": self.solver.motion_centers, "max_distance": self.solver.model.max_distance, "scale": self.scale,
-             "bias": self.bias, "stiffness": self.stiffness},
-            {"motion": constrain_motion},
-        )
+        values = (self.solver.motion_centers, self.solver.model.max_distance, self.scale, self.bias, self.stiffness)
+        self._fused = standing(self._fused, _LINES, _NAMES, values, _KERNELS)
+        return self._fused
+
+
+_LINES = ("{motion}({centers}, {max_distance}, {scale}, {bias}, {stiffness}, cur)",)
+_NAMES = ("centers", "max_distance", "scale", "bias", "stiffness")
+_KERNELS = {"motion": constrain_motion}

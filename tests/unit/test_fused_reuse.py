@@ -59,10 +59,10 @@ def test_collide_call_is_kept_while_its_arrays_stand_and_made_again_when_one_cha
     assert collide.fused_call().args["frames"] is frames
 
 
-def _walk_frames(count: int):
-    """The walk's cloth simulated frame by frame (compiled frames), yielding after each
-    frame's plan: (solver, plan)."""
-    scene = load_scene(EXAMPLES / "skirt" / "walk.toml")
+def _frames(count: int, scene_file: str = "walk.toml"):
+    """The bundled skirt scene's cloth simulated frame by frame (compiled frames), yielding
+    after each frame's plan: (solver, plan)."""
+    scene = load_scene(EXAMPLES / "skirt" / scene_file)
     solver = make_solvers(scene, StageProfiler())[0]
     frame_dt = 1.0 / scene.fps
     for frame in range(scene.start_frame + 1, scene.start_frame + 1 + count):
@@ -77,7 +77,7 @@ def test_moving_frame_calls_stand_from_frame_to_frame_with_their_rows_moving_on(
     stacks from the frame's row on (only the row arrays' value moves), so prepare finds every
     call standing and gives the last frame's values list again."""
     last, kept = None, FusedFrame()
-    for solver, plan in _walk_frames(4):
+    for solver, plan in _frames(4):
         calls = {stage.name: stage.fused_call() for stage in solver.stages}
         k, terms = plan.iterations, solver.frame_terms
         first = int(calls["integrate"].args["row"][0])
@@ -132,3 +132,21 @@ def test_prepare_follows_a_stage_that_changes_its_kernel(walk):
         collide.kernel = kernel
     back, _, new = kept.prepare(solver.stages)
     assert back is function and new
+
+
+def test_calls_stand_without_a_track_in_a_steady_wind():
+    """Without a track the wind stage keeps its air in the same array (framefn.held) and its
+    zero frame motion: from the second frame on every call stands, so prepare gives the
+    last frame's values list again; the air rows are the wind's displacement per iteration."""
+    last, kept = None, FusedFrame()
+    for solver, plan in _frames(3, "scene.toml"):
+        assert solver.frame_terms is None
+        calls = [stage.fused_call() for stage in solver.stages]
+        values = kept.prepare(solver.stages)[1]
+        wind = _stage(solver, "wind")
+        expected = np.broadcast_to(wind.wind_world, (plan.iterations, 3)).astype(np.float32)
+        assert int(wind.row[0]) == 0 and np.array_equal(wind.air, expected) and not wind.matrix.any()
+        if last is not None:
+            assert all(a is b for a, b in zip(calls, last[0])) and values is last[1]
+        last = calls, values
+
