@@ -105,8 +105,8 @@ class ClothMeter:
         return self.summary_stats(strain, *motion)
 
     def summary_stats(self, strain: dict, speed, energy, fastest, bad, stretch) -> dict:
-        """The frame's stats dict from the strain per phase type and frame_summary's (or
-        motion_summary's and tether_stretch's) results, in SI units."""
+        """The frame's stats dict from the strain per phase type and frame_summary's motion
+        figures (motion_figures), in SI units."""
         to_m = self.solver.model.units_to_meters
         stats = {
             "strain": strain,
