@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from clothtool.solver.kernels.stats import frame_summary
-from clothtool.solver.penetration import face_penetration, warm_up_mesh_depths, warm_up_round_cone_depths
+from clothtool.solver.penetration import ConeRecords, face_penetration, warm_up_mesh_depths, warm_up_round_cone_depths
 
 PHASE_LABELS = ("vertical", "horizontal", "shearing", "bending")
 PERCENTILE = 99.0  # the report's upper strain percentile, "p99"
@@ -55,6 +55,7 @@ class ClothMeter:
         self._span_per_label = len(set(self.span_labels)) == len(self.span_labels)
         self.has_tethers = model.has_tethers
         self.colliders = solver.environment.colliders
+        self.cones = ConeRecords()  # the colliders' round cones, kept from frame to frame
 
     def warm_up(self, percentiles: bool = True, mesh_penetration: bool = False, shape_penetration: bool = False) -> None:
         """Compile the kernels ``measure`` calls (with mesh_penetration and shape_penetration, the
@@ -89,7 +90,7 @@ class ClothMeter:
         if time is not None and self.colliders is not None:
             faces = face_penetration(
                 self.solver.world_points(), model.triangles, self.colliders(time), model.units_to_meters,
-                float(model.material.thickness),
+                float(model.material.thickness), self.cones,
             )
             stats["max_penetration"] = max(faces.depth, 0.0)
             stats["faces_beyond_thickness"] = faces.faces_beyond

@@ -441,3 +441,31 @@ def test_collider_arrays_of_fields_is_what_init_makes(scene):
         assert getattr(initialised, name) is value
     with pytest.raises(dataclasses.FrozenInstanceError):
         made.sphere_center = None
+
+
+def test_face_measure_cones_of_prefetched_rows_are_those_of_one_time_alone(scene):
+    """The face measure's round cones (penetration.ConeRecords: made for every prefetched row
+    at once, kept while the same colliders come again) are those made from one time's
+    colliders alone: the ball (both ends its centre) then the tapered leg, radii grown by the
+    margins; and the measure gives the same figures with them."""
+    from clothtool.solver.penetration import ConeRecords, face_penetration
+
+    times = [scene.frame_time(frame) for frame in range(scene.start_frame, scene.end_frame + 1)]
+    alone = [ConeRecords()(scene.colliders.at(t)) for t in times]  # nothing prefetched: no stack
+    first = scene.colliders.at(times[0])
+    margin = np.concatenate([first.sphere_margin[first.sphere_is_collider], first.capsule_margin]).astype(np.float64)
+    np.testing.assert_array_equal(alone[0][:, 8:11], [[1, 0, 0], [0, 0, 0]])
+    np.testing.assert_array_equal(alone[0][:, 12:15], [[1, 0, 0], [0, -1, 0]])
+    np.testing.assert_allclose(alone[0][:, [11, 15]], np.array([[0.5, 0.5], [0.2, 0.1]]) + margin[:, None], rtol=1e-7)
+    scene.colliders.prefetch(times)
+    cones = ConeRecords()
+    points = np.array([[0.0, -0.5, -0.3], [0.3, -0.5, 0.3], [-0.3, -0.5, 0.3], [1.0, 0.5, 0.0]])
+    triangles = np.array([[0, 1, 2], [1, 3, 2]], np.int32)
+    for t, expected in zip(times, alone):
+        colliders = scene.colliders.at(t)
+        assert colliders.source is not None
+        records = cones(colliders)
+        assert cones(colliders) is records  # the same colliders again: kept
+        np.testing.assert_array_equal(records, expected)
+        kept = face_penetration(points, triangles, colliders, 1.0, 0.01, cones)
+        assert kept == face_penetration(points, triangles, colliders, 1.0, 0.01)
