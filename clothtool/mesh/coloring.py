@@ -98,7 +98,7 @@ class TripletScheduler:
         # Rows sorted by their smallest and then largest particle index: neighbouring rows
         # touch neighbouring memory, and greedy colouring of a grid in this order is optimal.
         if not self.elements.size:
-            return np.lexsort((np.zeros(0, np.int64), np.zeros(0, np.int64)))
+            return np.zeros(0, np.intp)  # what lexsort gives for no rows
         # column by column: numpy's min(axis=1) over rows of 2-4 entries is ~10x slower
         columns = self.elements.T
         lo, hi = functools.reduce(np.minimum, columns), functools.reduce(np.maximum, columns)

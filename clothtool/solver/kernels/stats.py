@@ -201,9 +201,8 @@ def frame_summary(indices, rest, spans, groups, members, particles, tethers, q, 
     A group's figures are worked out here rather than in a helper of their own: each helper
     is a compilation of its own whose LLVM code, with all it inlines, every caller optimises
     again (that level cost ~0.3 s of the ~2.5 s CPU a cold start spent compiling the stats
-    kernels). motion_summary and
-    tether_stretch are device kernels: called from here, they compile without the CPython
-    wrapper only a call from Python needs."""
+    kernels). motion_summary and tether_stretch are device kernels: called from here, they
+    compile without the CPython wrapper only a call from Python needs."""
     for j in range(members.shape[0] - 1):
         own, own_prev = cur[particles[j] : particles[j + 1]], prev[particles[j] : particles[j + 1]]
         for g in range(members[j], members[j + 1]):  # group g's strain figures
